@@ -1,0 +1,48 @@
+/* ejecta application API: load a scene, build a simulation, run it. */
+#ifndef EJ_EJECTA_H
+#define EJ_EJECTA_H
+
+#include "ejecta/plugin.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define EJ_VERSION_STRING EJ_VERSION
+
+typedef struct ej_scene ej_scene;
+typedef struct ej_sim ej_sim;
+
+/* A registry with the default plugin search path: the build tree, the install prefix, then
+ * the directories of EJECTA_PLUGIN_PATH (colon-separated). */
+ej_err ej_registry_create(ej_registry **reg);
+void ej_registry_destroy(ej_registry *reg); /* never dlcloses */
+/* Replaces the search path (colon-separated directories). */
+ej_err ej_registry_set_path(ej_registry *reg, const char *path);
+
+/* Reads and validates a scene. Input errors carry file:line:col. */
+ej_err ej_scene_load(const char *path, ej_registry *reg, ej_scene **scene);
+void ej_scene_destroy(ej_scene *scene);
+
+typedef struct ej_run_opts {
+  size_t struct_size;
+  const char *output;  /* overrides the scene's output file, or NULL */
+  const char *restart; /* checkpoint file to continue from, or NULL */
+  int threads;         /* 0 = OpenMP default */
+  bool progress;       /* progress line on stderr */
+  ej_real t_end;       /* > 0 overrides the scene's end time */
+} ej_run_opts;
+
+ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts, ej_sim **sim);
+/* Runs to the end time; EJ_ERR_NUMERIC when the watchdog stops the run. */
+ej_err ej_sim_run(ej_sim *sim);
+void ej_sim_destroy(ej_sim *sim);
+
+/* Prints the current thread's error (one line for input errors) and clears it. */
+void ej_error_report(const char *prog);
+ej_err ej_error_last_code(void);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

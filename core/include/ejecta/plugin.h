@@ -1,0 +1,400 @@
+/* ejecta plugin SDK: the only header a plugin includes.
+ *
+ * ABI rules (DESIGN.md "Plugins"):
+ *  - a plugin exports exactly one symbol, ej_plugin_info_v1(), returning a const descriptor;
+ *  - the first four members of ej_plugin_info are frozen for every ABI version;
+ *  - every ops table starts with size_t struct_size and only ever grows at the end;
+ *  - calls are per batch / particle range, never per pair: pair loops live in the plugin.
+ *
+ * Conventions: SI units, Cauchy stress tension-positive, pressure compression-positive
+ * (p = -tr(sigma)/3), Voigt order xx yy zz xy yz zx, pair vectors x_ij = x_j - x_i.
+ */
+#ifndef EJ_PLUGIN_H
+#define EJ_PLUGIN_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ejecta/config.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
+#define EJ_ABI_MINOR 0 /* members appended to an info or ops struct        */
+
+#if defined(__GNUC__)
+#define EJ_EXPORT __attribute__((visibility("default")))
+#define EJ_PRINTF(a, b) __attribute__((format(printf, a, b)))
+#else
+#define EJ_EXPORT
+#define EJ_PRINTF(a, b)
+#endif
+
+typedef double ej_real;   /* "real=f64" in the build signature */
+typedef int32_t ej_idx;   /* particle index inside a set ("idx=i32") */
+typedef int64_t ej_off;   /* offsets into CSR neighbour arrays */
+
+/* ------------------------------------------------------------------ errors */
+
+typedef enum ej_err {
+  EJ_OK = 0,
+  EJ_ERR_ARG,         /* caller broke a documented precondition (a bug)        */
+  EJ_ERR_INPUT,       /* scene / YAML / particle file rejected (user's mistake) */
+  EJ_ERR_MEM,         /* allocation failed                                      */
+  EJ_ERR_IO,          /* file could not be read or written                      */
+  EJ_ERR_ABI,         /* plugin built for another ABI or build signature        */
+  EJ_ERR_PLUGIN,      /* plugin misbehaved: bad ops table, failed register      */
+  EJ_ERR_UNSUPPORTED, /* valid request this build or plugin cannot serve        */
+  EJ_ERR_NUMERIC,     /* NaN, rho <= 0, singular matrix, dt -> 0                */
+  EJ_ERR_INTERNAL     /* broken core invariant: always a bug                    */
+} ej_err;
+
+/* A position in an input file; line and col are 1-based, 0 when unknown. */
+typedef struct ej_loc {
+  const char *file;
+  int line, col;
+} ej_loc;
+
+/* Pushes a frame on the calling thread's error stack and returns code.
+ * fmt == NULL means "propagating, no new message". */
+ej_err ej_error_push(ej_err code, const char *file, int line, const char *func, const char *fmt, ...)
+    EJ_PRINTF(5, 6);
+/* An input error tied to a place in the scene or a particle file. */
+ej_err ej_error_input(const ej_loc *where, const char *fmt, ...) EJ_PRINTF(2, 3);
+
+#define EJ_FAIL(code, ...) return ej_error_push((code), __FILE__, __LINE__, __func__, __VA_ARGS__)
+#define EJ_ENSURE(cond, code, ...)                                                                      \
+  do {                                                                                                  \
+    if (!(cond)) EJ_FAIL((code), __VA_ARGS__);                                                          \
+  } while (0)
+#define EJ_TRY(expr)                                                                                    \
+  do {                                                                                                  \
+    ej_err ej_try_rc_ = (expr);                                                                         \
+    if (ej_try_rc_ != EJ_OK) return ej_error_push(ej_try_rc_, __FILE__, __LINE__, __func__, NULL);      \
+  } while (0)
+#define EJ_TRY_GOTO(rc, expr, label)                                                                    \
+  do {                                                                                                  \
+    (rc) = (expr);                                                                                      \
+    if ((rc) != EJ_OK) {                                                                                \
+      ej_error_push((rc), __FILE__, __LINE__, __func__, NULL);                                          \
+      goto label;                                                                                       \
+    }                                                                                                   \
+  } while (0)
+
+/* ------------------------------------------------------------------ memory */
+
+/* Plugins allocate through the core so that accounting and failure injection work. */
+void *ej_malloc(size_t size);
+void *ej_calloc(size_t n, size_t size); /* overflow-checked */
+void *ej_realloc(void *p, size_t size);
+void ej_free(void *p);
+
+/* ------------------------------------------------------------------ parameters */
+
+typedef enum ej_ptype {
+  EJ_PT_REAL,       /* ej_real                                          */
+  EJ_PT_INT,        /* int64_t                                          */
+  EJ_PT_BOOL,       /* bool                                             */
+  EJ_PT_ENUM,       /* int: index into choices                          */
+  EJ_PT_STRING,     /* const char * (owned by the scene)                */
+  EJ_PT_REAL_ARRAY, /* ej_real[count]; a YAML sequence of count numbers */
+  EJ_PT_BLOCK       /* nested struct at offset, described by sub        */
+} ej_ptype;
+
+enum {
+  EJ_PF_REQUIRED = 1u << 0,
+  EJ_PF_HAS_MIN = 1u << 1,
+  EJ_PF_HAS_MAX = 1u << 2,
+  EJ_PF_MIN_OPEN = 1u << 3, /* value must be > min, not >= */
+  EJ_PF_MAX_OPEN = 1u << 4,
+  EJ_PF_EXPERT = 1u << 5
+};
+
+/* One parameter: name is both the YAML key and the C field. unit is an SI unit
+ * expression ("Pa", "kg/m^3", "J/kg", "m", "s", "1" for none) or "deg" for angles
+ * (plain numbers are degrees, stored in radians). Numbers in a scene may carry any unit of
+ * the same dimension ("8.7 GPa", "4 mm", "1.6 g/cm^3") and are stored in SI. */
+typedef struct ej_param {
+  const char *name;
+  ej_ptype type;
+  size_t offset;
+  unsigned flags;
+  const char *unit;
+  double def, min, max;
+  int count;                   /* EJ_PT_REAL_ARRAY length */
+  const char *const *choices;  /* EJ_PT_ENUM: NULL-terminated */
+  const char *def_str;         /* EJ_PT_STRING default, or EJ_PT_ENUM default word */
+  const struct ej_param *sub;  /* EJ_PT_BLOCK: {0}-terminated table */
+  size_t sub_size;             /* EJ_PT_BLOCK: sizeof nested struct */
+  const char *doc;             /* one sentence: describe, docs and schema */
+} ej_param;
+
+/* A wrong C type for the field is a compile error (_Generic guard). */
+#define EJ_PARAM_REAL(cfg, field, unit_, def_, min_, max_, flags_, doc_)                                \
+  {.name = #field, .type = EJ_PT_REAL,                                                                  \
+   .offset = offsetof(cfg, field) + 0 * sizeof(_Generic(((cfg *)0)->field, ej_real: 1)),               \
+   .flags = (flags_), .unit = (unit_), .def = (def_), .min = (min_), .max = (max_), .doc = (doc_)}
+#define EJ_PARAM_INT(cfg, field, def_, min_, max_, flags_, doc_)                                        \
+  {.name = #field, .type = EJ_PT_INT,                                                                   \
+   .offset = offsetof(cfg, field) + 0 * sizeof(_Generic(((cfg *)0)->field, int64_t: 1)),               \
+   .flags = (flags_), .unit = "1", .def = (def_), .min = (min_), .max = (max_), .doc = (doc_)}
+#define EJ_PARAM_BOOL(cfg, field, def_, doc_)                                                           \
+  {.name = #field, .type = EJ_PT_BOOL,                                                                  \
+   .offset = offsetof(cfg, field) + 0 * sizeof(_Generic(((cfg *)0)->field, bool: 1)), .unit = "1",     \
+   .def = (def_), .doc = (doc_)}
+#define EJ_PARAM_ENUM(cfg, field, choices_, def_word, doc_)                                             \
+  {.name = #field, .type = EJ_PT_ENUM,                                                                  \
+   .offset = offsetof(cfg, field) + 0 * sizeof(_Generic(((cfg *)0)->field, int: 1)), .unit = "1",      \
+   .choices = (choices_), .def_str = (def_word), .doc = (doc_)}
+#define EJ_PARAM_STRING(cfg, field, def_, flags_, doc_)                                                 \
+  {.name = #field, .type = EJ_PT_STRING,                                                                \
+   .offset = offsetof(cfg, field) + 0 * sizeof(_Generic(((cfg *)0)->field, const char *: 1)),          \
+   .flags = (flags_), .unit = "1", .def_str = (def_), .doc = (doc_)}
+#define EJ_PARAM_ARRAY(cfg, field, n, unit_, flags_, doc_)                                              \
+  {.name = #field, .type = EJ_PT_REAL_ARRAY, .offset = offsetof(cfg, field), .flags = (flags_),         \
+   .unit = (unit_), .count = (n), .doc = (doc_)}
+#define EJ_PARAM_BLOCK(cfg, field, subtable, substruct, flags_, doc_)                                   \
+  {.name = #field, .type = EJ_PT_BLOCK, .offset = offsetof(cfg, field), .flags = (flags_),              \
+   .unit = "1", .sub = (subtable), .sub_size = sizeof(substruct), .doc = (doc_)}
+
+/* Cross-field checks report through a diagnostic that knows where the block is. */
+typedef struct ej_diag ej_diag;
+/* Reports an input error at the YAML node of key (or the block itself when key is NULL). */
+ej_err ej_diag_error(ej_diag *d, const char *key, const char *fmt, ...) EJ_PRINTF(3, 4);
+typedef ej_err (*ej_config_check_fn)(const void *config, ej_diag *diag);
+
+/* ------------------------------------------------------------------ particle sets */
+
+typedef struct ej_set ej_set;       /* core-owned particle set (opaque) */
+typedef struct ej_range {
+  ej_idx begin, end;
+} ej_range;
+
+typedef enum ej_field_kind {
+  EJ_SCALAR = 1,
+  EJ_VEC3 = 3,
+  EJ_SYM6 = 6,    /* Voigt xx yy zz xy yz zx */
+  EJ_TENSOR9 = 9, /* row-major 3x3 */
+  EJ_INT = 101    /* int32_t, one component */
+} ej_field_kind;
+
+/* Budget roles: the core sums m * field over a set for the energy budget. */
+typedef enum ej_energy_role {
+  EJ_ENERGY_NONE = 0,
+  EJ_ENERGY_INTERNAL,  /* specific internal energy, J/kg, part of the conserved total   */
+  EJ_ENERGY_VISCOUS,   /* specific work dissipated by artificial viscosity (reported)   */
+  EJ_ENERGY_PLASTIC,   /* specific plastic work (reported)                              */
+  EJ_ENERGY_HOURGLASS  /* specific work dissipated by hourglass control (reported)      */
+} ej_energy_role;
+
+enum {
+  EJ_FIELD_OUTPUT = 1u << 0,   /* written to frames unless the scene lists fields      */
+  EJ_FIELD_POSITION = 1u << 1, /* a point (vec3): mirrored/translated, not only rotated */
+  EJ_FIELD_NO_GHOST = 1u << 2, /* not copied to ghost particles                          */
+  EJ_FIELD_SCRATCH = 1u << 3   /* recomputed every step: not checkpointed                */
+};
+
+/* A field a plugin needs. Declaring a field with a rate makes the core allocate the rate
+ * field (same kind), zero it before each compute and integrate field += dt * rate. */
+typedef struct ej_field_decl {
+  const char *name;
+  ej_field_kind kind;
+  unsigned flags;
+  const char *unit;
+  const char *rate; /* name of its rate field, or NULL */
+  ej_energy_role energy;
+  const char *doc;
+} ej_field_decl;
+
+ej_idx ej_set_count(const ej_set *s);     /* owned particles                        */
+ej_idx ej_set_count_all(const ej_set *s); /* owned + ghosts (neighbours may be ghosts) */
+int ej_set_dim(const ej_set *s);          /* 1, 2 or 3 */
+const char *ej_set_name(const ej_set *s);
+/* Field data for owned + ghost particles, ncomp values per particle; NULL if the scene
+ * declared no such field. The pointer is valid until the next neighbour rebuild. */
+ej_real *ej_set_field(const ej_set *s, const char *name);
+int32_t *ej_set_field_int(const ej_set *s, const char *name);
+/* Initial spacing of particle i's lattice (for kernel sizes and time steps). */
+ej_real ej_set_spacing_min(const ej_set *s);
+
+/* ------------------------------------------------------------------ neighbours */
+
+typedef enum ej_nbr_config {
+  EJ_NBR_NONE = 0,
+  EJ_NBR_CURRENT,  /* current configuration, rebuilt with a Verlet skin */
+  EJ_NBR_REFERENCE /* reference configuration, built once (fixed families) */
+} ej_nbr_config;
+
+/* A CSR list: row i (an owned particle of the first set) lists indices j into the second set
+ * (owned or ghost). Rows are in ascending j-cell order, deterministic. Current lists contain
+ * every pair with |x_j - x_i| < max(R_i, R_j) (+ the skin), never i itself. */
+typedef struct ej_nbr {
+  ej_idx n_rows;
+  const ej_off *off; /* [n_rows + 1] */
+  const ej_idx *idx; /* [off[n_rows]] */
+} ej_nbr;
+
+/* ------------------------------------------------------------------ EOS */
+
+typedef struct ej_eos ej_eos; /* an EOS instance (opaque) */
+
+typedef struct ej_eos_ops {
+  size_t struct_size;
+  const char *name, *summary, *doc;
+  const ej_param *params;
+  size_t config_size;
+  ej_config_check_fn check_config;
+  ej_err (*create)(const void *config, void **state);
+  /* p and c (sound speed) for n points; c may be NULL. */
+  ej_err (*evaluate)(const void *state, ej_idx n, const ej_real *rho, const ej_real *e, ej_real *p,
+                     ej_real *c);
+  void (*destroy)(void *state);
+} ej_eos_ops;
+
+ej_err ej_eos_evaluate(const ej_eos *eos, ej_idx n, const ej_real *rho, const ej_real *e, ej_real *p,
+                       ej_real *c);
+
+/* ------------------------------------------------------------------ materials (strength) */
+
+typedef struct ej_material ej_material; /* a material instance (opaque) */
+
+/* A VUMAT-like batch of n points of one material. */
+typedef struct ej_mat_batch {
+  ej_idx n;
+  ej_real dt;
+  const ej_real *rho; /* [n] current density                                        */
+  const ej_real *e;   /* [n] specific internal energy                               */
+  const ej_real *d;   /* [n][6] rate of deformation, rotation-neutralised (Voigt)   */
+  const ej_real *F;   /* [n][9] deformation gradient, or NULL                        */
+  const ej_real *p;   /* [n] pressure from the attached EOS, or NULL                 */
+  ej_real *stress;    /* [n][6] in: rotated stress at t_n; out: Cauchy at t_n+1       */
+  ej_real *hist;      /* [n][n_hist] history variables                               */
+  ej_real *c;         /* [n] out: sound speed                                        */
+  ej_real *w_plastic; /* [n] out: specific plastic work increment, or NULL           */
+} ej_mat_batch;
+
+typedef struct ej_material_ops {
+  size_t struct_size;
+  const char *name, *summary, *doc;
+  const ej_param *params;
+  size_t config_size;
+  ej_config_check_fn check_config;
+  int n_hist;
+  const char *const *hist_names;
+  bool needs_eos; /* volumetric response from the EOS the scene attaches */
+  ej_err (*create)(const void *config, void **state);
+  ej_err (*init_hist)(const void *state, ej_idx n, ej_real *hist);
+  ej_err (*update)(const void *state, ej_mat_batch *b);
+  void (*destroy)(void *state);
+} ej_material_ops;
+
+ej_err ej_material_update(const ej_material *mat, ej_mat_batch *b);
+
+/* What a set is made of: reference density, EOS and strength model (either may be NULL). */
+typedef struct ej_model ej_model;
+ej_real ej_model_rho0(const ej_model *m);
+const ej_eos *ej_model_eos(const ej_model *m);
+const ej_material *ej_model_material(const ej_model *m);
+const char *ej_model_name(const ej_model *m);
+
+/* ------------------------------------------------------------------ methods */
+
+/* Filled by a method's declare op: the fields and neighbour list it needs. */
+typedef struct ej_decl ej_decl;
+ej_err ej_decl_field(ej_decl *d, const ej_field_decl *f);
+/* Neighbour list over the method's own set, in the given configuration. */
+ej_err ej_decl_neighbours(ej_decl *d, ej_nbr_config config);
+
+/* Counters a plugin reports (e.g. shape-tensor fallbacks), summed over the run. */
+typedef struct ej_counter {
+  const char *name;
+  int64_t value;
+} ej_counter;
+
+typedef struct ej_method_ops {
+  size_t struct_size;
+  const char *name, *summary, *doc;
+  const ej_param *params;
+  size_t config_size;
+  ej_config_check_fn check_config;
+  /* The fields and neighbours this configuration needs (called before allocation). */
+  ej_err (*declare)(const void *config, int dim, ej_decl *d);
+  ej_err (*create)(const void *config, ej_set *set, const ej_model *model, void **state);
+  /* After particles exist and initial fields are set (density, energy, velocity):
+   * initialise method fields (smoothing length, shape tensors...). Serial. */
+  ej_err (*setup)(void *state, ej_set *set);
+  /* Search radius R_i of each owned particle in range (current configuration). */
+  ej_err (*support)(void *state, const ej_set *set, ej_range r, ej_real *radius);
+  /* Number of passes per step; the core refreshes ghosts between passes. */
+  int n_passes;
+  /* One pass over owned particles in r; writes only particles in r (gather form). */
+  ej_err (*compute)(void *state, ej_set *set, const ej_nbr *nbr, int pass, ej_range r);
+  /* Largest stable step over particles in r (before the CFL factor). */
+  ej_err (*stable_dt)(void *state, const ej_set *set, ej_range r, ej_real *dt);
+  /* After the step is complete (bond breaking, damage). May be NULL. */
+  ej_err (*post_step)(void *state, ej_set *set, ej_range r);
+  /* Counters to report at the end of the run. May be NULL. */
+  ej_err (*counters)(void *state, ej_counter *out, int max, int *n);
+  void (*destroy)(void *state);
+} ej_method_ops;
+
+/* ------------------------------------------------------------------ interactions */
+
+typedef struct ej_interaction_ops {
+  size_t struct_size;
+  const char *name, *summary, *doc;
+  const ej_param *params;
+  size_t config_size;
+  ej_config_check_fn check_config;
+  /* Neighbour list from set a to set b in the current configuration with radii from both
+   * methods' support ops. */
+  ej_err (*create)(const void *config, ej_set *a, ej_set *b, void **state);
+  ej_err (*compute)(void *state, ej_set *a, ej_set *b, const ej_nbr *ab, int pass, ej_range r);
+  ej_err (*stable_dt)(void *state, const ej_set *a, const ej_set *b, ej_real *dt);
+  void (*destroy)(void *state);
+} ej_interaction_ops;
+
+/* ------------------------------------------------------------------ registration */
+
+typedef struct ej_registry ej_registry;
+ej_err ej_register_method(ej_registry *reg, const ej_method_ops *ops);
+ej_err ej_register_material(ej_registry *reg, const ej_material_ops *ops);
+ej_err ej_register_eos(ej_registry *reg, const ej_eos_ops *ops);
+ej_err ej_register_interaction(ej_registry *reg, const ej_interaction_ops *ops);
+
+/* Pure data: readable before the ABI is trusted. The first four members never move. */
+typedef struct ej_plugin_info {
+  size_t struct_size;
+  unsigned abi_major, abi_minor;
+  const char *build_signature;
+  const char *name, *version, *license, *summary;
+  ej_err (*register_all)(ej_registry *reg);
+} ej_plugin_info;
+typedef const ej_plugin_info *(*ej_plugin_info_fn)(void);
+#define EJ_PLUGIN_ENTRY_SYMBOL "ej_plugin_info_v1"
+
+/* Defines the plugin descriptor, a static accessor ej_plugin_<name>_info() (for linking a
+ * plugin into tests) and, in shared builds (EJ_PLUGIN_SHARED), the exported entry symbol. */
+#ifdef EJ_PLUGIN_SHARED
+#define EJ_PLUGIN_ENTRY_(pname)                                                                         \
+  EJ_EXPORT const ej_plugin_info *ej_plugin_info_v1(void);                                              \
+  EJ_EXPORT const ej_plugin_info *ej_plugin_info_v1(void) { return &ej_info_##pname##_; }
+#else
+#define EJ_PLUGIN_ENTRY_(pname)
+#endif
+#define EJ_PLUGIN_DEFINE(pname, version_, license_, summary_, register_fn)                              \
+  static const ej_plugin_info ej_info_##pname##_ = {                                                    \
+      .struct_size = sizeof(ej_plugin_info), .abi_major = EJ_ABI_MAJOR, .abi_minor = EJ_ABI_MINOR,      \
+      .build_signature = EJ_BUILD_SIGNATURE, .name = #pname, .version = (version_),                    \
+      .license = (license_), .summary = (summary_), .register_all = (register_fn)};                    \
+  const ej_plugin_info *ej_plugin_##pname##_info(void);                                                 \
+  const ej_plugin_info *ej_plugin_##pname##_info(void) { return &ej_info_##pname##_; }                  \
+  EJ_PLUGIN_ENTRY_(pname)
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* EJ_PLUGIN_H */

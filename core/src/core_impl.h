@@ -1,0 +1,460 @@
+/* Core-private declarations shared by the modules of libejecta. Not installed. */
+#ifndef EJ_CORE_IMPL_H
+#define EJ_CORE_IMPL_H
+#ifndef EJ_CORE_BUILD
+#error "core_impl.h is private to libejecta"
+#endif
+
+#include <stdio.h>
+
+#include "ejecta/ejecta.h"
+
+/* ================================================================== error stack (error.c) */
+
+#define EJ_ERROR_MAX_FRAMES 32
+#define EJ_ERROR_MSG_LEN 512
+
+typedef struct ej_error_frame {
+  ej_err code;
+  const char *file, *func; /* code location */
+  int line;
+  char msg[EJ_ERROR_MSG_LEN]; /* empty for propagation frames */
+  ej_loc where;               /* input location (where.file NULL if none) */
+  char where_file[256];
+} ej_error_frame;
+
+/* Number of frames on this thread's stack and frame k (0 = innermost). */
+int ej_error_count(void);
+const ej_error_frame *ej_error_frame_at(int k);
+/* The first frame carrying a message (the cause), or NULL. */
+const ej_error_frame *ej_error_cause(void);
+void ej_error_clear(void);
+/* Prints "PROG: error: FILE:LINE:COL: message" (one line) for input errors, and the
+ * code frames too for internal errors or when debug is true. */
+void ej_error_print(FILE *out, const char *prog, bool debug);
+/* Copy frames from another thread's stack snapshot (OpenMP regions). */
+void ej_error_import(const ej_error_frame *frames, int n);
+
+/* ================================================================== small utilities */
+
+/* Growable byte buffer for text (schema, describe, XDMF). */
+typedef struct ej_buf {
+  char *data;
+  size_t len, cap;
+} ej_buf;
+ej_err ej_buf_printf(ej_buf *b, const char *fmt, ...) EJ_PRINTF(2, 3);
+void ej_buf_free(ej_buf *b);
+
+/* strdup through ej_malloc. */
+char *ej_strdup(const char *s);
+/* Levenshtein distance, for "did you mean". */
+int ej_edit_distance(const char *a, const char *b);
+/* Nearest of n candidates within a small distance, or NULL. */
+const char *ej_nearest_word(const char *word, const char *const *cands, int n);
+
+/* ================================================================== YAML document (yaml.c) */
+
+typedef enum ej_node_type { EJ_NODE_SCALAR, EJ_NODE_MAP, EJ_NODE_SEQ } ej_node_type;
+
+typedef struct ej_node ej_node;
+struct ej_node {
+  ej_node_type type;
+  ej_loc loc;         /* start mark of the node */
+  char *text;         /* EJ_NODE_SCALAR: the scalar text */
+  bool quoted;        /* scalar was quoted (then never a number) */
+  int n;              /* number of items (SEQ) or pairs (MAP) */
+  ej_node **items;    /* SEQ items, or MAP values */
+  char **keys;        /* MAP keys */
+  ej_loc *key_locs;   /* MAP key locations */
+};
+
+typedef struct ej_doc {
+  char *path;
+  char *text; /* file contents verbatim */
+  size_t text_len;
+  ej_node *root;
+} ej_doc;
+
+/* Reads and parses a YAML file. Missing file and malformed YAML are input errors with a
+ * location (the file itself for a missing file). Duplicate map keys are input errors. */
+ej_err ej_doc_load(const char *path, ej_doc **doc);
+ej_err ej_doc_parse_string(const char *name, const char *text, ej_doc **doc);
+void ej_doc_destroy(ej_doc *doc);
+/* Value of key in a map node, or NULL. */
+const ej_node *ej_node_get(const ej_node *map, const char *key);
+const ej_loc *ej_node_key_loc(const ej_node *map, const char *key);
+
+/* ================================================================== units (units.c) */
+
+/* Parses "value [unit]" against the declared unit (see ej_param.unit) and returns SI.
+ * A plain number is in the declared unit. A unit of another dimension, an unknown unit or a
+ * malformed number is an input error at loc. */
+ej_err ej_units_parse(const char *text, const char *declared_unit, const ej_loc *loc, double *si);
+/* Dimension check helper: true if unit expressions a and b have the same dimension. */
+bool ej_units_compatible(const char *a, const char *b);
+
+/* ================================================================== parameters (params.c) */
+
+/* ej_diag carries the block being validated, for check_config errors. */
+struct ej_diag {
+  const ej_node *block;
+  const char *what; /* "material 'sand' (drucker_prager)" */
+};
+
+/* Applies defaults, then the keys of map (unknown key: error with nearest suggestion; wrong
+ * type; out of range; missing required), then check_config. skip lists keys of the block
+ * that belong to the caller (e.g. "model"), NULL-terminated. config is zeroed by caller. */
+ej_err ej_params_apply(const ej_param *table, void *config, const ej_node *map, const char *what,
+                       const char *const *skip, ej_config_check_fn check);
+ej_err ej_params_defaults(const ej_param *table, void *config);
+/* Human-readable table (ejecta describe). */
+ej_err ej_params_describe(ej_buf *out, const ej_param *table, int indent);
+/* JSON Schema object ("type":"object","properties":{...}) for a table. */
+ej_err ej_params_schema(ej_buf *out, const ej_param *table, const char *const *extra_keys);
+
+/* ================================================================== geometry (geometry.c) */
+
+typedef struct ej_shape ej_shape; /* owned by the scene */
+
+/* Parses a shape node: {box: {min, max}}, {cylinder: {base|center, axis, radius, height}},
+ * {sphere: {center, radius}}, {half_space: {point, normal}} (inside = side opposite to the
+ * normal), {union: [...]}, {intersect: [...]}, and any shape with a sibling key
+ * "minus: [shape or set name...]". Set names in minus are resolved through lookup. */
+typedef const ej_shape *(*ej_shape_lookup_fn)(void *ctx, const char *set_name);
+ej_err ej_shape_parse(const ej_node *node, int dim, ej_shape_lookup_fn lookup, void *ctx, ej_shape **out);
+void ej_shape_destroy(ej_shape *s);
+bool ej_shape_contains(const ej_shape *s, const ej_real x[3]);
+/* Bounding box; EJ_ERR_INPUT (at the shape's location) if unbounded. */
+ej_err ej_shape_bounds(const ej_shape *s, ej_real lo[3], ej_real hi[3]);
+const ej_loc *ej_shape_loc(const ej_shape *s);
+
+typedef enum ej_lattice { EJ_LATTICE_CUBIC = 0, EJ_LATTICE_HCP = 1 } ej_lattice;
+
+/* Region-wise spacing: the first refinement region containing a point decides its spacing. */
+typedef struct ej_refine {
+  ej_shape *region;
+  ej_real spacing;
+} ej_refine;
+
+/* Generated particles: positions, volumes and the local lattice spacing. */
+typedef struct ej_points {
+  ej_idx n;
+  ej_real *x;       /* [n][3] */
+  ej_real *vol;     /* [n] (per unit depth in 2D, per unit area in 1D) */
+  ej_real *spacing; /* [n] */
+} ej_points;
+void ej_points_free(ej_points *p);
+
+/* ================================================================== scene (scene.c) */
+
+typedef struct ej_scene_material {
+  char *name;
+  ej_loc loc;
+  ej_real rho0;
+  const ej_eos_ops *eos_ops; /* NULL if none */
+  void *eos_config;
+  const ej_material_ops *mat_ops; /* strength model, NULL if none */
+  void *mat_config;
+} ej_scene_material;
+
+/* Region-wise initial conditions, applied in order after the set-wide ones. */
+typedef struct ej_scene_init {
+  ej_shape *region; /* NULL = whole set */
+  ej_loc loc;
+  bool has_rho, has_e, has_p, has_v, has_energy_total;
+  ej_real rho, e, p, v[3];
+  ej_real energy_total; /* J: spread over the region's particles in proportion to mass */
+} ej_scene_init;
+
+typedef struct ej_scene_set {
+  char *name;
+  ej_loc loc;
+  const ej_method_ops *method_ops;
+  void *method_config;
+  int material; /* index into scene materials */
+  /* geometry */
+  ej_shape *shape;       /* NULL when imported from a file */
+  ej_real spacing;
+  ej_lattice lattice;
+  ej_real jitter;        /* fraction of the local spacing, uniform in [-j/2, j/2] per component */
+  uint64_t seed;
+  int n_refine;
+  ej_refine *refine;
+  char *file;            /* CSV particle file (columns x,y,z[,vol][,...]) or NULL */
+  ej_loc file_loc;
+  /* initial conditions */
+  int n_init;
+  ej_scene_init *init;   /* init[0] is the set-wide one (region NULL) */
+} ej_scene_set;
+
+typedef enum ej_bc_kind { EJ_BC_FIX, EJ_BC_VELOCITY, EJ_BC_SYMMETRY, EJ_BC_PERIODIC } ej_bc_kind;
+
+typedef struct ej_scene_bc {
+  ej_bc_kind kind;
+  ej_loc loc;
+  int set;          /* set index, -1 = every set */
+  ej_shape *region; /* FIX / VELOCITY: particles inside at t = 0; NULL = whole set */
+  bool comp[3];     /* FIX: constrained components; VELOCITY: prescribed components */
+  ej_real velocity[3];
+  ej_real point[3], normal[3]; /* SYMMETRY plane (normal unit, pointing into the domain) */
+  int axis;                    /* PERIODIC: 0, 1, 2 */
+  ej_real lo, hi;              /* PERIODIC: period [lo, hi) */
+} ej_scene_bc;
+
+typedef struct ej_scene_interaction {
+  ej_loc loc;
+  const ej_interaction_ops *ops;
+  void *config;
+  int set_a, set_b;
+} ej_scene_interaction;
+
+typedef struct ej_scene {
+  ej_doc *doc; /* kept for the verbatim text and locations */
+  int dimension;
+  /* time */
+  ej_real t_end, cfl, dt_fixed; /* dt_fixed 0 = adaptive */
+  ej_real dt_max;               /* 0 = none */
+  int64_t max_steps;            /* 0 = none */
+  /* output */
+  char *output_file;
+  ej_loc output_loc;
+  ej_real output_every;     /* 0: first and last frame only */
+  ej_real checkpoint_every; /* 0: only at the end */
+  int n_output_fields;      /* 0 = every EJ_FIELD_OUTPUT field */
+  char **output_fields;
+  ej_loc *output_field_locs;
+  /* neighbours */
+  ej_real skin; /* Verlet skin as a fraction of the search radius (default 0.1) */
+  ej_real gravity[3];
+  int n_materials;
+  ej_scene_material *materials;
+  int n_sets;
+  ej_scene_set *sets;
+  int n_bcs; /* at most 32 */
+  ej_scene_bc *bcs;
+  int n_interactions;
+  ej_scene_interaction *interactions;
+} ej_scene;
+
+/* Loads and validates a scene, loading through reg only the plugins it names. */
+ej_err ej_scene_load_impl(const char *path, ej_registry *reg, ej_scene **scene);
+ej_err ej_scene_from_doc(ej_doc *doc, ej_registry *reg, ej_scene **scene); /* takes doc */
+void ej_scene_free(ej_scene *s);
+/* Particles of a set: lattice fill of the shape with region-wise spacing and jitter, or CSV
+ * import. An empty result is an input error at the set's location. */
+ej_err ej_scene_set_points(const ej_scene *sc, int set, ej_points *pts);
+/* JSON Schema of the whole scene format from the registry's tables. */
+ej_err ej_scene_schema(ej_registry *reg, ej_buf *out);
+
+/* ================================================================== registry and loader */
+
+typedef enum ej_kind { EJ_KIND_METHOD, EJ_KIND_MATERIAL, EJ_KIND_EOS, EJ_KIND_INTERACTION, EJ_KIND_COUNT } ej_kind;
+
+const char *ej_kind_name(ej_kind k);
+/* Finds name of kind k, loading the plugin file ej_<name>.so from the search path if it is
+ * not registered yet. Unknown names are input errors at loc with the nearest known name. */
+ej_err ej_registry_require(ej_registry *reg, ej_kind k, const char *name, const ej_loc *loc, const void **ops);
+/* Loads one plugin file (checks ABI, signature, entry symbol, ops tables, duplicates). */
+ej_err ej_registry_load_file(ej_registry *reg, const char *path);
+/* Loads every plugin file in the search path (plugins, describe, schema). */
+ej_err ej_registry_load_all(ej_registry *reg);
+/* Registered ops of kind k: count and item. */
+int ej_registry_count(const ej_registry *reg, ej_kind k);
+const void *ej_registry_item(const ej_registry *reg, ej_kind k, int i);
+/* Loaded plugin files: name, version, path. */
+int ej_registry_plugin_count(const ej_registry *reg);
+const ej_plugin_info *ej_registry_plugin(const ej_registry *reg, int i, const char **path);
+/* Name and params of any ops table (all kinds share the first members' layout). */
+typedef struct ej_ops_head {
+  size_t struct_size;
+  const char *name, *summary, *doc;
+  const ej_param *params;
+  size_t config_size;
+  ej_config_check_fn check_config;
+} ej_ops_head;
+
+/* ================================================================== particle sets */
+
+#define EJ_MAX_FIELDS 64
+#define EJ_FIELD_NAME_LEN 32
+
+typedef struct ej_field {
+  char name[EJ_FIELD_NAME_LEN];
+  ej_field_kind kind;
+  int ncomp;
+  unsigned flags;
+  const char *unit;
+  ej_energy_role energy;
+  int rate;    /* index of the rate field, -1 */
+  int rate_of; /* index of the field this is the rate of, -1 */
+  int half;    /* index of the half-step copy (integrated fields), -1 */
+  void *data;  /* ej_real or int32_t, cap * ncomp */
+} ej_field;
+
+/* A rigid transform of ghost images: x' = Q x + b. */
+typedef struct ej_xform {
+  ej_real Q[9];
+  ej_real b[3];
+} ej_xform;
+
+#define EJ_MAX_XFORMS 64
+
+typedef struct ej_nbrlist ej_nbrlist;
+
+struct ej_set {
+  char *name;
+  int index;
+  int dim;
+  ej_idx n, n_ghost, cap;
+  int n_fields;
+  ej_field fields[EJ_MAX_FIELDS];
+  int f_x, f_v, f_a, f_m, f_vol0, f_id, f_xb, f_rb, f_x0; /* base field indices (-1 absent) */
+  ej_real spacing_min;
+  /* method */
+  const ej_method_ops *mops;
+  const void *mconfig;
+  void *mstate;
+  ej_model *model;
+  ej_nbr_config nbr_config;
+  ej_nbrlist *list; /* own list, NULL if none */
+  ej_real *radius;  /* [cap] search radius */
+  /* ghosts: ghost g (index n + g) copies source ghost_src[g] through xforms[ghost_xf[g]] */
+  ej_idx *ghost_src;
+  uint8_t *ghost_xf;
+  /* boundary-condition masks: per particle bit k set if bcs[k] applies (k < 32) */
+  uint32_t *bc_mask;
+};
+
+struct ej_model {
+  char *name;
+  ej_real rho0;
+  ej_eos *eos;
+  ej_material *mat;
+};
+struct ej_eos {
+  const ej_eos_ops *ops;
+  void *state;
+};
+struct ej_material {
+  const ej_material_ops *ops;
+  void *state;
+};
+
+ej_err ej_set_create(const char *name, int index, int dim, ej_set **s);
+void ej_set_destroy(ej_set *s);
+/* Adds a field (idempotent for an identical declaration; a conflicting kind is an error). */
+ej_err ej_set_add_field(ej_set *s, const ej_field_decl *d, int *index);
+int ej_set_find_field(const ej_set *s, const char *name);
+/* Sets capacity for owned + ghost particles (reallocates every field). */
+ej_err ej_set_reserve(ej_set *s, ej_idx cap);
+/* Reorders owned particles: new i takes old perm[i], for every field. */
+ej_err ej_set_permute(ej_set *s, const ej_idx *perm);
+/* Copies every (ghosted) field from sources to ghosts, applying transforms. */
+void ej_set_update_ghosts(ej_set *s, const ej_xform *xf);
+
+/* ================================================================== neighbours (neighbours.c) */
+
+/* Uniform-grid cell lists and CSR lists. Scratch arrays are kept between rebuilds and only grow. */
+struct ej_nbrlist {
+  ej_nbr pub;    /* view given to plugins (points at off / idx) */
+  ej_off *off;   /* [row_cap + 1] */
+  ej_idx *idx;   /* [idx_cap] */
+  ej_idx row_cap;
+  ej_off idx_cap;
+  /* cell-grid scratch */
+  ej_idx *cell_start; /* [n_cells + 1] */
+  ej_idx *cell_items; /* [item_cap] candidate indices sorted by cell */
+  ej_idx *cell_of;    /* [item_cap] */
+  int64_t cell_cap;
+  ej_idx item_cap;
+};
+
+ej_err ej_nbrlist_create(ej_nbrlist **L);
+void ej_nbrlist_destroy(ej_nbrlist *L);
+/* Rows: points xa[0..na) with radii ra; candidates xb[0..nb) with radii rb (rb may equal ra).
+ * Pair (i, j) is listed iff |xb_j - xa_i| < max(ra_i, rb_j) + skin, and j != i when same.
+ * dim selects the components used (1: x, 2: x y, 3: x y z). Each row is sorted ascending by j. 
+ * Deterministic and identical for any thread count (OpenMP inside). */
+ej_err ej_nbrlist_build(ej_nbrlist *L, int dim, const ej_real *xa, const ej_real *ra, ej_idx na,
+                        const ej_real *xb, const ej_real *rb, ej_idx nb, ej_real skin, bool same);
+/* Cell-order permutation of n points for locality: perm[new] = old (stable). */
+ej_err ej_nbr_sort_order(int dim, const ej_real *x, ej_idx n, ej_real cell, ej_idx *perm);
+/* Renumbers a list after its row set and column set were permuted by perm (perm[new] = old;
+ * same permutation for rows and columns: fixed families of one set). */
+ej_err ej_nbrlist_permute(ej_nbrlist *L, const ej_idx *perm);
+
+/* ================================================================== comm (comm.c) */
+/* Every global reduction goes through here: serial today, MPI tomorrow. */
+ej_real ej_comm_min(ej_real v);
+void ej_comm_sum(ej_real *v, int n);
+
+/* ================================================================== simulation (sim.c) */
+
+typedef struct ej_energy {
+  ej_real kinetic, internal, viscous, plastic, hourglass;
+  ej_real external; /* accumulated external work */
+  ej_real total0;   /* kinetic + internal at t = 0 */
+  ej_real balance;  /* kinetic + internal - total0 - external */
+  ej_real momentum[3];
+} ej_energy;
+
+typedef struct ej_inter {
+  const ej_interaction_ops *ops;
+  const void *config;
+  void *state;
+  ej_set *a, *b;
+  ej_nbrlist *list;
+} ej_inter;
+
+typedef struct ej_output ej_output;
+
+struct ej_sim {
+  ej_scene *scene; /* borrowed */
+  ej_registry *reg; /* borrowed */
+  int dim;
+  int n_sets;
+  ej_set **sets;
+  ej_model *models; /* [scene->n_materials] */
+  int n_inter;
+  ej_inter *inter;
+  ej_xform xforms[EJ_MAX_XFORMS];
+  int n_xforms;
+  /* time */
+  ej_real t, dt;
+  int64_t step;
+  int64_t n_rebuilds;
+  /* diagnostics */
+  ej_energy energy;
+  /* output */
+  ej_output *out;
+  char *out_path;
+  ej_real next_output, next_checkpoint;
+  int64_t frame;
+  int threads;
+  bool progress;
+  /* chunking for deterministic parallel reductions */
+  ej_idx chunk;
+  ej_real *chunk_scratch; /* per-chunk partial sums */
+  int64_t chunk_scratch_cap;
+};
+
+/* ================================================================== output (output.c) */
+
+/* Opens path + ".partial" for writing and writes /meta (scene text verbatim, plugins and
+ * versions, build signature, ejecta version). An unwritable path is an input error at
+ * scene->output_loc. */
+ej_err ej_output_open(ej_output **out, const ej_sim *sim, const char *path);
+/* Writes /frames/NNNNNN/<set>/<field> (owned particles) with attributes time and step. */
+ej_err ej_output_frame(ej_output *out, const ej_sim *sim);
+/* Appends one row of the energy/momentum series (buffered; flushed in blocks). */
+ej_err ej_output_series(ej_output *out, const ej_sim *sim);
+/* Writes /checkpoint (every non-scratch field of every set plus the sim scalars), replacing
+ * the previous one. */
+ej_err ej_output_checkpoint(ej_output *out, const ej_sim *sim);
+/* Flushes, writes the XDMF sidecar (path with .xdmf) and renames .partial to path when
+ * success; on failure removes the partial file. Always frees out. */
+ej_err ej_output_close(ej_output *out, bool success);
+/* Reads /checkpoint of a file into a sim built from the same scene. */
+ej_err ej_checkpoint_read(const char *path, ej_sim *sim);
+
+#endif /* EJ_CORE_IMPL_H */
