@@ -29,6 +29,8 @@ const ej_error_frame *ej_error_frame_at(int k);
 /* The first frame carrying a message (the cause), or NULL. */
 const ej_error_frame *ej_error_cause(void);
 void ej_error_clear(void);
+/* Drops frames pushed after the stack had n frames (recovering from an expected failure). */
+void ej_error_truncate(int n);
 /* Prints "PROG: error: FILE:LINE:COL: message" (one line) for input errors, and the
  * code frames too for internal errors or when debug is true. */
 void ej_error_print(FILE *out, const char *prog, bool debug);
@@ -254,6 +256,8 @@ const char *ej_kind_name(ej_kind k);
 /* Finds name of kind k, loading the plugin file ej_<name>.so from the search path if it is
  * not registered yet. Unknown names are input errors at loc with the nearest known name. */
 ej_err ej_registry_require(ej_registry *reg, ej_kind k, const char *name, const ej_loc *loc, const void **ops);
+/* Registers a plugin linked into the executable (tests, static builds). */
+ej_err ej_registry_add_static(ej_registry *reg, const ej_plugin_info *info);
 /* Loads one plugin file (checks ABI, signature, entry symbol, ops tables, duplicates). */
 ej_err ej_registry_load_file(ej_registry *reg, const char *path);
 /* Loads every plugin file in the search path (plugins, describe, schema). */
@@ -437,6 +441,9 @@ struct ej_sim {
   ej_real *chunk_scratch; /* per-chunk partial sums */
   int64_t chunk_scratch_cap;
 };
+
+/* Runs a method's declare op against a set (describe, tests). */
+ej_err ej_decl_probe(const ej_method_ops *m, const void *config, ej_set *s);
 
 /* ================================================================== output (output.c) */
 

@@ -63,6 +63,11 @@ const ej_error_frame *ej_error_cause(void)
 
 void ej_error_clear(void) { ej_nframes = 0; }
 
+void ej_error_truncate(int n)
+{
+  if (n >= 0 && n < ej_nframes) ej_nframes = n;
+}
+
 ej_err ej_error_last_code(void) { return ej_nframes ? ej_frames[0].code : EJ_OK; }
 
 void ej_error_import(const ej_error_frame *frames, int n)

@@ -31,6 +31,7 @@ typedef struct ej_run_opts {
   int threads;         /* 0 = OpenMP default */
   bool progress;       /* progress line on stderr */
   ej_real t_end;       /* > 0 overrides the scene's end time */
+  bool check_only;     /* validate and build the particles; write nothing, run nothing */
 } ej_run_opts;
 
 ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts, ej_sim **sim);

@@ -116,7 +116,9 @@ enum {
 /* One parameter: name is both the YAML key and the C field. unit is an SI unit
  * expression ("Pa", "kg/m^3", "J/kg", "m", "s", "1" for none) or "deg" for angles
  * (plain numbers are degrees, stored in radians). Numbers in a scene may carry any unit of
- * the same dimension ("8.7 GPa", "4 mm", "1.6 g/cm^3") and are stored in SI. */
+ * the same dimension ("8.7 GPa", "4 mm", "1.6 g/cm^3") and are stored in SI. def, min and max
+ * are written in the declared unit (so "deg", 30, 0, 90 means degrees); bounds are checked
+ * after conversion to SI. */
 typedef struct ej_param {
   const char *name;
   ej_ptype type;

@@ -1,0 +1,477 @@
+/* Cell-list neighbour search on a uniform grid and CSR lists (DESIGN.md "Neighbours").
+ *
+ * A build bins the candidates into cells by a stable counting sort, then makes two passes
+ * over the rows: one counts each row's pairs, one fills them. Each row is written only by
+ * the thread that owns it and sorted ascending, so the list is bitwise identical for any
+ * OpenMP thread count (DESIGN.md "Determinism"). */
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "core_impl.h"
+
+#if defined(__GNUC__)
+#define EJ_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define EJ_ALWAYS_INLINE inline
+#endif
+
+/* Relative and absolute (cell units) widening of the scanned ball: covers the rounding of
+ * cell coordinates (about 1e-16 times the number of cells). */
+#define EJ_CELL_MARGIN 1e-6
+#ifndef EJ_CELL_SPLIT
+#define EJ_CELL_SPLIT 2
+#endif
+
+/* A uniform grid over a bounding box; components >= dim have one cell. */
+typedef struct ej_grid {
+  int dim;
+  ej_real lo[3];
+  ej_real inv_h;
+  int64_t nc[3];
+  int64_t n_cells;
+} ej_grid;
+
+/* Sizes the grid over points x[0..n) (n > 0) with cells of at least h, enlarged until the
+ * grid has at most max_cells cells: a few points in a huge box must not cost memory. */
+static ej_err ej_grid_setup(ej_grid *g, int dim, const ej_real *x, ej_idx n, ej_real h, int64_t max_cells)
+{
+  ej_real lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for (int d = 0; d < dim; d++) lo[d] = hi[d] = x[d];
+  for (ej_idx i = 1; i < n; i++) {
+    for (int d = 0; d < dim; d++) {
+      const ej_real v = x[3 * (size_t)i + d];
+      if (v < lo[d]) lo[d] = v;
+      if (v > hi[d]) hi[d] = v;
+    }
+  }
+  ej_real ext_max = 0;
+  for (int d = 0; d < dim; d++) {
+    const ej_real ext = hi[d] - lo[d];
+    /* NaN coordinates are skipped by the comparisons above; infinite ones are not. */
+    EJ_ENSURE(isfinite(lo[d]) && isfinite(hi[d]) && isfinite(ext), EJ_ERR_NUMERIC,
+              "non-finite particle position (component %d) in neighbour search", d);
+    if (ext > ext_max) ext_max = ext;
+  }
+  /* Keeps ext / h finite even for absurdly small h. */
+  if (h < ext_max / (ej_real)max_cells) h = ext_max / (ej_real)max_cells;
+
+  ej_real nc[3] = {1, 1, 1};
+  for (;;) {
+    ej_real total = 1;
+    for (int d = 0; d < dim; d++) {
+      nc[d] = floor((hi[d] - lo[d]) / h) + 1;
+      total *= nc[d];
+    }
+    if (total <= (ej_real)max_cells) break;
+    ej_real grow = pow(total / (ej_real)max_cells, 1.0 / dim);
+    h *= grow > 1.01 ? grow : 1.01;
+  }
+
+  g->dim = dim;
+  g->inv_h = 1 / h;
+  g->n_cells = 1;
+  for (int d = 0; d < 3; d++) {
+    g->lo[d] = d < dim ? lo[d] : 0;
+    g->nc[d] = d < dim ? (int64_t)nc[d] : 1;
+    g->n_cells *= g->nc[d];
+  }
+  return EJ_OK;
+}
+
+/* Cell coordinate of a point of the gridded set; clamped since rounding (or a NaN) may
+ * step just outside. */
+static EJ_ALWAYS_INLINE int64_t ej_grid_coord(const ej_grid *g, int d, ej_real x)
+{
+  const ej_real t = (x - g->lo[d]) * g->inv_h;
+  if (!(t > 0)) return 0;
+  if (t >= (ej_real)(g->nc[d] - 1)) return g->nc[d] - 1;
+  return (int64_t)t;
+}
+
+static EJ_ALWAYS_INLINE int64_t ej_grid_cell(const ej_grid *g, const ej_real *x)
+{
+  int64_t c = 0;
+  for (int d = g->dim - 1; d >= 0; d--) c = c * g->nc[d] + ej_grid_coord(g, d, x[d]);
+  return c;
+}
+
+/* Insertion sort for the short and nearly sorted rows that particles in cell order give;
+ * quicksort (median of three, recursing on the smaller side) for the rest. Row entries are
+ * distinct. */
+static void ej_idx_sort(ej_idx *a, int64_t n)
+{
+  while (n > 24) {
+    const int64_t m = n / 2;
+    ej_idx p0 = a[0], p1 = a[m], p2 = a[n - 1], piv;
+    if (p0 < p1) piv = p1 < p2 ? p1 : (p0 < p2 ? p2 : p0);
+    else piv = p0 < p2 ? p0 : (p1 < p2 ? p2 : p1);
+    int64_t i = 0, j = n - 1;
+    for (;;) {
+      while (a[i] < piv) i++;
+      while (a[j] > piv) j--;
+      if (i >= j) break;
+      ej_idx t = a[i];
+      a[i] = a[j];
+      a[j] = t;
+      i++;
+      j--;
+    }
+    /* a[0..j] <= piv <= a[j+1..n) */
+    const int64_t nl = j + 1;
+    if (nl < n - nl) {
+      ej_idx_sort(a, nl);
+      a += nl;
+      n -= nl;
+    } else {
+      ej_idx_sort(a + nl, n - nl);
+      n = nl;
+    }
+  }
+  for (int64_t i = 1; i < n; i++) {
+    const ej_idx v = a[i];
+    int64_t k = i;
+    while (k > 0 && a[k - 1] > v) {
+      a[k] = a[k - 1];
+      k--;
+    }
+    a[k] = v;
+  }
+}
+
+/* Discards the contents and grows a scratch array to at least need elements (plus slack
+ * for arrays whose size drifts between rebuilds). */
+static ej_err ej_scratch_grow(void **p, int64_t *cap, int64_t need, size_t elem, bool slack)
+{
+  if (need <= *cap && *p) return EJ_OK;
+  int64_t want = need + (slack ? need / 8 + 64 : 0);
+  if (want < 1) want = 1;
+  EJ_ENSURE((uint64_t)want <= SIZE_MAX / elem, EJ_ERR_MEM, "neighbour scratch of %lld items overflows",
+            (long long)want);
+  ej_free(*p);
+  *p = ej_malloc((size_t)want * elem);
+  if (!*p) {
+    *cap = 0;
+    EJ_FAIL(EJ_ERR_MEM, "out of memory for %lld neighbour scratch items", (long long)want);
+  }
+  *cap = want;
+  return EJ_OK;
+}
+
+ej_err ej_nbrlist_create(ej_nbrlist **L)
+{
+  EJ_ENSURE(L, EJ_ERR_ARG, "NULL list pointer");
+  *L = ej_calloc(1, sizeof **L);
+  EJ_ENSURE(*L, EJ_ERR_MEM, "out of memory");
+  return EJ_OK;
+}
+
+void ej_nbrlist_destroy(ej_nbrlist *L)
+{
+  if (!L) return;
+  ej_free(L->off);
+  ej_free(L->idx);
+  ej_free(L->cell_start);
+  ej_free(L->cell_items);
+  ej_free(L->cell_of);
+  ej_free(L);
+}
+
+/* Distance in cell units from coordinate t to cell c's interval [c, c + 1). */
+static EJ_ALWAYS_INLINE ej_real ej_cell_gap(ej_real t, int64_t c)
+{
+  const ej_real a = (ej_real)c - t, b = t - (ej_real)(c + 1);
+  return a > 0 ? a : (b > 0 ? b : 0);
+}
+
+/* Counts (out == NULL) or writes the candidates of row i; inlined with a constant dim so
+ * the distance test is specialised. Only cells that the ball of radius
+ * R = max(ri, rb_max) + skin around xi can touch are scanned: per cell row along x (one
+ * contiguous run of cell_items, since x is the fastest cell index) the x range is the
+ * ball's chord over that row. Works in cell units; the margin on R covers the rounding of
+ * the cell coordinates, so a pair that passes the test is never in a skipped cell. */
+static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, const ej_real *xi, ej_real ri,
+                                           ej_idx i, const ej_real *xb, const ej_real *rb, ej_real rb_max,
+                                           ej_real skin, bool same, const ej_idx *cell_start,
+                                           const ej_idx *cell_items, ej_idx *out, ej_idx len)
+{
+  const ej_real rrow = (ri > rb_max ? ri : rb_max) + skin;
+  const ej_real rr = rrow * g->inv_h * (1 + EJ_CELL_MARGIN) + EJ_CELL_MARGIN;
+  ej_real t[3] = {0, 0, 0};
+  int64_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for (int d = 0; d < dim; d++) {
+    t[d] = (xi[d] - g->lo[d]) * g->inv_h;
+    if (!(t[d] + rr >= 0 && t[d] - rr < (ej_real)g->nc[d])) return 0; /* also NaN */
+    lo[d] = t[d] - rr > 0 ? (int64_t)(t[d] - rr) : 0;
+    hi[d] = t[d] + rr < (ej_real)(g->nc[d] - 1) ? (int64_t)(t[d] + rr) : g->nc[d] - 1;
+  }
+  /* Rows at least as wide as every candidate need no candidate radius. */
+  const bool row_wide = ri >= rb_max;
+  const ej_real r2_row = (ri + skin) * (ri + skin);
+  const ej_real x0 = xi[0], x1 = dim > 1 ? xi[1] : 0, x2 = dim > 2 ? xi[2] : 0;
+  const ej_idx self = same ? i : -1;
+  ej_idx n = 0;
+  if (out && len == 0) return 0;
+  for (int64_t cz = lo[2]; cz <= hi[2]; cz++) {
+    const ej_real gz = dim > 2 ? ej_cell_gap(t[2], cz) : 0;
+    for (int64_t cy = lo[1]; cy <= hi[1]; cy++) {
+      int64_t cxl = lo[0], cxh = hi[0];
+      if (dim > 1) {
+        const ej_real gy = ej_cell_gap(t[1], cy);
+        const ej_real w2 = rr * rr - gy * gy - gz * gz;
+        if (w2 < 0) continue;
+        const ej_real w = sqrt(w2);
+        if (t[0] - w > (ej_real)cxl) cxl = (int64_t)(t[0] - w);
+        if (t[0] + w < (ej_real)cxh) cxh = (int64_t)(t[0] + w);
+        if (cxl > cxh) continue;
+      }
+      const int64_t base = (cz * g->nc[1] + cy) * g->nc[0];
+      const ej_idx s = cell_start[base + cxl], e = cell_start[base + cxh + 1];
+      for (ej_idx k = s; k < e; k++) {
+        const ej_idx j = cell_items[k];
+        const ej_real *xj = xb + 3 * (size_t)j;
+        const ej_real dx = xj[0] - x0;
+        ej_real d2 = dx * dx;
+        if (dim > 1) {
+          const ej_real dy = xj[1] - x1;
+          d2 = d2 + dy * dy;
+        }
+        if (dim > 2) {
+          const ej_real dz = xj[2] - x2;
+          d2 = d2 + dz * dz;
+        }
+        ej_idx in;
+        if (row_wide) {
+          in = d2 < r2_row;
+        } else {
+          /* Same operations as max(ri, rj) + skin when ri < rj. */
+          const ej_real rj = rb[j];
+          const ej_real r = (ri > rj ? ri : rj) + skin;
+          in = d2 < r * r;
+        }
+        /* Branch-free: about a third of the candidates pass, at random. */
+        in &= j != self;
+        if (out) {
+          /* The store is in the row while n < len, and the scan stops at len. */
+          out[n] = j;
+          n += in;
+          if (n == len) return n;
+        } else {
+          n += in;
+        }
+      }
+    }
+  }
+  return n;
+}
+
+static void ej_rows_count(const ej_grid *g, int dim, const ej_real *xa, const ej_real *ra, ej_idx na,
+                          const ej_real *xb, const ej_real *rb, ej_real rb_max, ej_real skin, bool same,
+                          const ej_idx *cell_start, const ej_idx *cell_items, ej_off *off)
+{
+#pragma omp parallel for schedule(dynamic, 256)
+  for (ej_idx i = 0; i < na; i++) {
+    const ej_real *xi = xa + 3 * (size_t)i;
+    ej_idx c;
+    switch (dim) {
+    case 1: c = ej_row_scan(g, 1, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, NULL, 0); break;
+    case 2: c = ej_row_scan(g, 2, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, NULL, 0); break;
+    default: c = ej_row_scan(g, 3, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, NULL, 0); break;
+    }
+    off[i + 1] = c;
+  }
+}
+
+static void ej_rows_fill(const ej_grid *g, int dim, const ej_real *xa, const ej_real *ra, ej_idx na,
+                         const ej_real *xb, const ej_real *rb, ej_real rb_max, ej_real skin, bool same,
+                         const ej_idx *cell_start, const ej_idx *cell_items, const ej_off *off, ej_idx *idx)
+{
+#pragma omp parallel for schedule(dynamic, 256)
+  for (ej_idx i = 0; i < na; i++) {
+    const ej_real *xi = xa + 3 * (size_t)i;
+    ej_idx *row = idx + off[i];
+    const ej_idx len = (ej_idx)(off[i + 1] - off[i]);
+    switch (dim) {
+    case 1: ej_row_scan(g, 1, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, row, len); break;
+    case 2: ej_row_scan(g, 2, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, row, len); break;
+    default: ej_row_scan(g, 3, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, row, len); break;
+    }
+    ej_idx_sort(row, len);
+  }
+}
+
+/* At most this many cells per candidate: beyond it memory, not search time, dominates. */
+static int64_t ej_cell_limit(ej_idx n)
+{
+  int64_t lim = 4 * (int64_t)n + 64;
+  return lim < INT32_MAX - 1 ? lim : INT32_MAX - 1; /* cell ids are stored as ej_idx */
+}
+
+static ej_err ej_radius_max(const ej_real *r, ej_idx n, ej_real *rmax)
+{
+  ej_real m = 0;
+  ej_idx bad = 0;
+#pragma omp parallel for reduction(max : m) reduction(+ : bad) schedule(static)
+  for (ej_idx i = 0; i < n; i++) {
+    if (!(r[i] >= 0) || !isfinite(r[i])) bad++;
+    else if (r[i] > m) m = r[i];
+  }
+  EJ_ENSURE(!bad, EJ_ERR_ARG, "%d search radii are negative or not finite", (int)bad);
+  *rmax = m > *rmax ? m : *rmax;
+  return EJ_OK;
+}
+
+ej_err ej_nbrlist_build(ej_nbrlist *L, int dim, const ej_real *xa, const ej_real *ra, ej_idx na,
+                        const ej_real *xb, const ej_real *rb, ej_idx nb, ej_real skin, bool same)
+{
+  EJ_ENSURE(L, EJ_ERR_ARG, "NULL list");
+  EJ_ENSURE(dim >= 1 && dim <= 3, EJ_ERR_ARG, "dimension %d not in 1..3", dim);
+  EJ_ENSURE(na >= 0 && nb >= 0, EJ_ERR_ARG, "negative particle count (%d, %d)", (int)na, (int)nb);
+  EJ_ENSURE(!na || (xa && ra), EJ_ERR_ARG, "NULL row positions or radii");
+  EJ_ENSURE(!nb || (xb && rb), EJ_ERR_ARG, "NULL candidate positions or radii");
+  EJ_ENSURE(skin >= 0 && isfinite(skin), EJ_ERR_ARG, "skin %g is negative or not finite", skin);
+
+  /* Caps are stored before checking rc: a failed grow leaves an array NULL with cap 0. */
+  L->pub.n_rows = 0;
+  int64_t cap = (int64_t)L->row_cap + 1;
+  ej_err rc = ej_scratch_grow((void **)&L->off, &cap, (int64_t)na + 1, sizeof *L->off, false);
+  L->row_cap = (ej_idx)(cap - 1 > INT32_MAX ? INT32_MAX : (cap > 0 ? cap - 1 : 0));
+  EJ_TRY(rc);
+  cap = L->idx_cap;
+  rc = ej_scratch_grow((void **)&L->idx, &cap, 0, sizeof *L->idx, true);
+  L->idx_cap = cap;
+  EJ_TRY(rc);
+  L->pub.off = L->off;
+  L->pub.idx = L->idx;
+  memset(L->off, 0, ((size_t)na + 1) * sizeof *L->off);
+
+  ej_real ra_max = 0, rb_max = 0;
+  EJ_TRY(ej_radius_max(ra, na, &ra_max));
+  EJ_TRY(ej_radius_max(rb, nb, &rb_max));
+  const ej_real h = ((ra_max > rb_max ? ra_max : rb_max) + skin) / EJ_CELL_SPLIT;
+  /* No pair is closer than a zero radius: every row is empty. */
+  if (na == 0 || nb == 0 || !(h > 0)) {
+    L->pub.n_rows = na;
+    return EJ_OK;
+  }
+
+  ej_grid g;
+  EJ_TRY(ej_grid_setup(&g, dim, xb, nb, h, ej_cell_limit(nb)));
+
+  /* Bin candidates by a stable counting sort: cell_items lists j ascending within a cell. */
+  cap = L->cell_cap + 1;
+  rc = ej_scratch_grow((void **)&L->cell_start, &cap, g.n_cells + 1, sizeof *L->cell_start, false);
+  L->cell_cap = cap > 0 ? cap - 1 : 0;
+  EJ_TRY(rc);
+  if (nb > L->item_cap) {
+    int64_t c1 = L->item_cap, c2 = L->item_cap;
+    L->item_cap = 0;
+    rc = ej_scratch_grow((void **)&L->cell_items, &c1, nb, sizeof *L->cell_items, false);
+    if (rc == EJ_OK) rc = ej_scratch_grow((void **)&L->cell_of, &c2, nb, sizeof *L->cell_of, false);
+    EJ_TRY(rc);
+    L->item_cap = (ej_idx)(c1 < c2 ? c1 : c2);
+  }
+  ej_idx *cell_start = L->cell_start, *cell_items = L->cell_items, *cell_of = L->cell_of;
+#pragma omp parallel for schedule(static)
+  for (ej_idx j = 0; j < nb; j++) cell_of[j] = (ej_idx)ej_grid_cell(&g, xb + 3 * (size_t)j);
+  memset(cell_start, 0, ((size_t)g.n_cells + 1) * sizeof *cell_start);
+  for (ej_idx j = 0; j < nb; j++) cell_start[cell_of[j] + 1]++;
+  for (int64_t c = 0; c < g.n_cells; c++) cell_start[c + 1] += cell_start[c];
+  /* Scatter with cell_start[c] as the cursor of cell c, then shift it back by one cell. */
+  for (ej_idx j = 0; j < nb; j++) cell_items[cell_start[cell_of[j]]++] = j;
+  for (int64_t c = g.n_cells; c > 0; c--) cell_start[c] = cell_start[c - 1];
+  cell_start[0] = 0;
+
+  ej_rows_count(&g, dim, xa, ra, na, xb, rb, rb_max, skin, same, cell_start, cell_items, L->off);
+  for (ej_idx i = 0; i < na; i++) L->off[i + 1] += L->off[i];
+
+  cap = L->idx_cap;
+  rc = ej_scratch_grow((void **)&L->idx, &cap, L->off[na], sizeof *L->idx, true);
+  L->idx_cap = cap;
+  L->pub.idx = L->idx;
+  EJ_TRY(rc);
+
+  ej_rows_fill(&g, dim, xa, ra, na, xb, rb, rb_max, skin, same, cell_start, cell_items, L->off, L->idx);
+  L->pub.n_rows = na;
+  return EJ_OK;
+}
+
+ej_err ej_nbr_sort_order(int dim, const ej_real *x, ej_idx n, ej_real cell, ej_idx *perm)
+{
+  EJ_ENSURE(dim >= 1 && dim <= 3, EJ_ERR_ARG, "dimension %d not in 1..3", dim);
+  EJ_ENSURE(n >= 0, EJ_ERR_ARG, "negative particle count %d", (int)n);
+  EJ_ENSURE(cell > 0 && isfinite(cell), EJ_ERR_ARG, "cell size %g is not positive and finite", cell);
+  if (n == 0) return EJ_OK;
+  EJ_ENSURE(x && perm, EJ_ERR_ARG, "NULL positions or permutation");
+
+  ej_grid g;
+  EJ_TRY(ej_grid_setup(&g, dim, x, n, cell, ej_cell_limit(n)));
+  ej_err rc = EJ_OK;
+  ej_idx *cell_of = ej_malloc((size_t)n * sizeof *cell_of);
+  ej_idx *start = ej_calloc((size_t)g.n_cells + 1, sizeof *start);
+  if (!cell_of || !start) {
+    rc = ej_error_push(EJ_ERR_MEM, __FILE__, __LINE__, __func__, "out of memory sorting %d particles", (int)n);
+    goto free_scratch;
+  }
+#pragma omp parallel for schedule(static)
+  for (ej_idx i = 0; i < n; i++) cell_of[i] = (ej_idx)ej_grid_cell(&g, x + 3 * (size_t)i);
+  for (ej_idx i = 0; i < n; i++) start[cell_of[i] + 1]++;
+  for (int64_t c = 0; c < g.n_cells; c++) start[c + 1] += start[c];
+  for (ej_idx i = 0; i < n; i++) perm[start[cell_of[i]]++] = i;
+free_scratch:
+  ej_free(start);
+  ej_free(cell_of);
+  return rc;
+}
+
+ej_err ej_nbrlist_permute(ej_nbrlist *L, const ej_idx *perm)
+{
+  EJ_ENSURE(L, EJ_ERR_ARG, "NULL list");
+  const ej_idx n = L->pub.n_rows;
+  if (n == 0) return EJ_OK;
+  EJ_ENSURE(perm, EJ_ERR_ARG, "NULL permutation");
+
+  ej_err rc = EJ_OK;
+  ej_idx *inv = ej_malloc((size_t)n * sizeof *inv);
+  ej_off *off = ej_malloc(((size_t)L->row_cap + 1) * sizeof *off);
+  ej_idx *idx = ej_malloc((size_t)(L->idx_cap > 0 ? L->idx_cap : 1) * sizeof *idx);
+  if (!inv || !off || !idx) {
+    rc = ej_error_push(EJ_ERR_MEM, __FILE__, __LINE__, __func__, "out of memory permuting %d rows", (int)n);
+    goto free_new;
+  }
+  for (ej_idx i = 0; i < n; i++) inv[i] = -1;
+  for (ej_idx i = 0; i < n; i++) {
+    const ej_idx p = perm[i];
+    if (p < 0 || p >= n || inv[p] >= 0) {
+      rc = ej_error_push(EJ_ERR_ARG, __FILE__, __LINE__, __func__,
+                         "perm is not a permutation of 0..%d (entry %d = %d)", (int)n - 1, (int)i, (int)p);
+      goto free_new;
+    }
+    inv[p] = i;
+  }
+  off[0] = 0;
+  for (ej_idx i = 0; i < n; i++) off[i + 1] = off[i] + (L->off[perm[i] + 1] - L->off[perm[i]]);
+#pragma omp parallel for schedule(dynamic, 256)
+  for (ej_idx i = 0; i < n; i++) {
+    const ej_idx *src = L->idx + L->off[perm[i]];
+    ej_idx *dst = idx + off[i];
+    const int64_t len = off[i + 1] - off[i];
+    /* Ghost columns (>= n) are not reordered with the owned particles. */
+    for (int64_t k = 0; k < len; k++) dst[k] = src[k] < n ? inv[src[k]] : src[k];
+    ej_idx_sort(dst, len);
+  }
+  ej_free(L->off);
+  ej_free(L->idx);
+  L->off = off;
+  L->idx = idx;
+  if (L->idx_cap < 1) L->idx_cap = 1;
+  L->pub.off = off;
+  L->pub.idx = idx;
+  off = NULL;
+  idx = NULL;
+free_new:
+  ej_free(idx);
+  ej_free(off);
+  ej_free(inv);
+  return rc;
+}

@@ -1,0 +1,1022 @@
+/* The simulation: sets built from the scene, ghosts for symmetry and periodic boundaries,
+ * Verlet-skin neighbour rebuilds, and the explicit velocity-Verlet step (DESIGN.md "Core").
+ *
+ * The core owns every OpenMP region. Work is cut into fixed-size chunks that do not depend on
+ * the thread count; plugins write only their own particles (gather form) and reductions are
+ * combined per chunk in chunk order, so results are bitwise identical for any thread count. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "core_impl.h"
+
+#define EJ_CHUNK 512
+#define EJ_NRED 8 /* reduction slots per chunk */
+
+struct ej_decl {
+  ej_set *set;
+  ej_err rc;
+};
+
+ej_err ej_decl_field(ej_decl *d, const ej_field_decl *f) { return ej_set_add_field(d->set, f, NULL); }
+
+ej_err ej_decl_neighbours(ej_decl *d, ej_nbr_config config)
+{
+  EJ_ENSURE(config == EJ_NBR_NONE || config == EJ_NBR_CURRENT || config == EJ_NBR_REFERENCE, EJ_ERR_PLUGIN,
+            "invalid neighbour configuration %d", (int)config);
+  d->set->nbr_config = config;
+  return EJ_OK;
+}
+
+ej_err ej_decl_probe(const ej_method_ops *m, const void *config, ej_set *s)
+{
+  ej_decl d = {.set = s};
+  return m->declare(config, s->dim, &d);
+}
+
+static double ej_wall(void)
+{
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* ------------------------------------------------------------------ chunked parallel loops */
+
+typedef ej_err (*ej_chunk_fn)(ej_sim *sim, ej_set *s, void *ctx, int64_t chunk, ej_range r);
+
+/* Runs fn over the owned particles of s in chunks; the first error (lowest chunk) wins. */
+static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
+{
+  const int64_t nch = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK;
+  int64_t failed_chunk = INT64_MAX;
+  ej_error_frame frames[EJ_ERROR_MAX_FRAMES];
+  int nframes = 0;
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int64_t c = 0; c < nch; ++c) {
+    int64_t seen;
+#pragma omp atomic read
+    seen = failed_chunk;
+    if (seen < c) continue;
+    ej_range r = {(ej_idx)(c * EJ_CHUNK), (ej_idx)((c + 1) * EJ_CHUNK < s->n ? (c + 1) * EJ_CHUNK : s->n)};
+    ej_err rc = fn(sim, s, ctx, c, r);
+    if (rc != EJ_OK) {
+#pragma omp critical(ej_chunk_error)
+      {
+        if (c < failed_chunk) {
+          nframes = ej_error_count();
+          for (int k = 0; k < nframes; ++k) frames[k] = *ej_error_frame_at(k);
+          failed_chunk = c;
+        }
+      }
+      ej_error_clear();
+    }
+  }
+  if (failed_chunk != INT64_MAX) {
+    ej_error_import(frames, nframes);
+    return ej_error_push(frames[0].code, __FILE__, __LINE__, __func__, NULL);
+  }
+  return EJ_OK;
+}
+
+static ej_err ej_sim_scratch(ej_sim *sim, const ej_set *s)
+{
+  int64_t need = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK * EJ_NRED + EJ_NRED;
+  if (need <= sim->chunk_scratch_cap) return EJ_OK;
+  ej_real *p = ej_realloc(sim->chunk_scratch, (size_t)need * sizeof *p);
+  EJ_ENSURE(p, EJ_ERR_MEM, "out of memory");
+  sim->chunk_scratch = p;
+  sim->chunk_scratch_cap = need;
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ models */
+
+static ej_err ej_models_create(ej_sim *sim)
+{
+  const ej_scene *sc = sim->scene;
+  sim->models = ej_calloc((size_t)sc->n_materials + 1, sizeof *sim->models);
+  EJ_ENSURE(sim->models, EJ_ERR_MEM, "out of memory");
+  for (int i = 0; i < sc->n_materials; ++i) {
+    const ej_scene_material *sm = &sc->materials[i];
+    ej_model *m = &sim->models[i];
+    m->name = sm->name;
+    m->rho0 = sm->rho0;
+    if (sm->eos_ops) {
+      m->eos = ej_calloc(1, sizeof *m->eos);
+      EJ_ENSURE(m->eos, EJ_ERR_MEM, "out of memory");
+      m->eos->ops = sm->eos_ops;
+      EJ_TRY(sm->eos_ops->create(sm->eos_config, &m->eos->state));
+    }
+    if (sm->mat_ops) {
+      m->mat = ej_calloc(1, sizeof *m->mat);
+      EJ_ENSURE(m->mat, EJ_ERR_MEM, "out of memory");
+      m->mat->ops = sm->mat_ops;
+      EJ_TRY(sm->mat_ops->create(sm->mat_config, &m->mat->state));
+    }
+  }
+  return EJ_OK;
+}
+
+static void ej_models_destroy(ej_sim *sim)
+{
+  if (!sim->models) return;
+  for (int i = 0; i < sim->scene->n_materials; ++i) {
+    ej_model *m = &sim->models[i];
+    if (m->eos) {
+      if (m->eos->state) m->eos->ops->destroy(m->eos->state);
+      ej_free(m->eos);
+    }
+    if (m->mat) {
+      if (m->mat->state) m->mat->ops->destroy(m->mat->state);
+      ej_free(m->mat);
+    }
+  }
+  ej_free(sim->models);
+}
+
+/* Specific energy giving pressure p at density rho (bisection: p(rho, e) increases with e). */
+static ej_err ej_eos_invert(const ej_eos *eos, ej_real rho, ej_real p, const ej_loc *loc, ej_real *e)
+{
+  ej_real lo = 0, hi = 1, plo, phi;
+  EJ_TRY(ej_eos_evaluate(eos, 1, &rho, &lo, &plo, NULL));
+  if (plo > p) {
+    hi = 0;
+    lo = -1;
+    for (int k = 0; k < 400; ++k) {
+      EJ_TRY(ej_eos_evaluate(eos, 1, &rho, &lo, &plo, NULL));
+      if (plo <= p) break;
+      lo *= 2;
+    }
+  } else {
+    for (int k = 0; k < 400; ++k) {
+      EJ_TRY(ej_eos_evaluate(eos, 1, &rho, &hi, &phi, NULL));
+      if (phi >= p) break;
+      hi *= 2;
+    }
+  }
+  EJ_TRY(ej_eos_evaluate(eos, 1, &rho, &lo, &plo, NULL));
+  EJ_TRY(ej_eos_evaluate(eos, 1, &rho, &hi, &phi, NULL));
+  if (!(plo <= p && phi >= p))
+    return ej_error_input(loc, "no internal energy gives pressure %g Pa at density %g kg/m^3 with this EOS", p, rho);
+  for (int k = 0; k < 200 && hi - lo > 1e-15 * fabs(hi); ++k) {
+    ej_real mid = 0.5 * (lo + hi), pm;
+    EJ_TRY(ej_eos_evaluate(eos, 1, &rho, &mid, &pm, NULL));
+    if (pm < p) lo = mid;
+    else hi = mid;
+  }
+  *e = 0.5 * (lo + hi);
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ sets */
+
+static bool ej_bc_applies(const ej_scene_bc *bc, int set) { return bc->set < 0 || bc->set == set; }
+
+static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, const ej_points *pts)
+{
+  const ej_model *model = s->model;
+  ej_real *x = s->fields[s->f_x].data, *v = s->fields[s->f_v].data;
+  ej_real *m = s->fields[s->f_m].data, *vol = s->fields[s->f_vol0].data;
+  int32_t *id = s->fields[s->f_id].data;
+  ej_real *rho = ej_set_field(s, "rho"), *e = ej_set_field(s, "e");
+  ej_real *rho_init = ej_malloc((size_t)s->n * sizeof *rho_init);
+  ej_real *p_init = ej_malloc((size_t)s->n * sizeof *p_init);
+  ej_err rc = EJ_OK;
+  if (!rho_init || !p_init) {
+    rc = ej_error_push(EJ_ERR_MEM, __FILE__, __LINE__, __func__, "out of memory");
+    goto out_free;
+  }
+  s->spacing_min = INFINITY;
+  for (ej_idx i = 0; i < s->n; ++i) {
+    memcpy(x + 3 * i, pts->x + 3 * i, 3 * sizeof *x);
+    vol[i] = pts->vol[i];
+    id[i] = i;
+    rho_init[i] = model->rho0;
+    p_init[i] = NAN;
+    if (pts->spacing[i] < s->spacing_min) s->spacing_min = pts->spacing[i];
+  }
+  if (s->f_x0 >= 0) memcpy(s->fields[s->f_x0].data, x, (size_t)s->n * 3 * sizeof *x);
+  for (int k = 0; k < ss->n_init; ++k) {
+    const ej_scene_init *in = &ss->init[k];
+    if ((in->has_e || in->has_p || in->has_energy_total) && !e) {
+      rc = ej_error_input(&in->loc, "set '%s': its method has no internal energy to initialise", s->name);
+      goto out_free;
+    }
+    if (in->has_p && !model->eos) {
+      rc = ej_error_input(&in->loc, "set '%s': an initial pressure needs an equation of state in material '%s'",
+                          s->name, model->name);
+      goto out_free;
+    }
+    ej_real mass_in = 0;
+    for (ej_idx i = 0; i < s->n; ++i) {
+      if (in->region && !ej_shape_contains(in->region, x + 3 * i)) continue;
+      if (in->has_rho) rho_init[i] = in->rho;
+      if (in->has_v) memcpy(v + 3 * i, in->v, 3 * sizeof *v);
+      if (in->has_e) e[i] = in->e, p_init[i] = NAN;
+      if (in->has_p) p_init[i] = in->p;
+      mass_in += rho_init[i] * vol[i];
+    }
+    if (in->has_energy_total) {
+      if (mass_in <= 0) {
+        rc = ej_error_input(&in->loc, "set '%s': the energy_total region holds no particle", s->name);
+        goto out_free;
+      }
+      for (ej_idx i = 0; i < s->n; ++i)
+        if (!in->region || ej_shape_contains(in->region, x + 3 * i)) e[i] += in->energy_total / mass_in;
+    }
+  }
+  for (ej_idx i = 0; i < s->n; ++i) {
+    m[i] = rho_init[i] * vol[i];
+    if (rho) rho[i] = rho_init[i];
+    if (!isnan(p_init[i])) {
+      const ej_loc *loc = &ss->loc;
+      for (int k = 0; k < ss->n_init; ++k)
+        if (ss->init[k].has_p) loc = &ss->init[k].loc;
+      EJ_TRY_GOTO(rc, ej_eos_invert(model->eos, rho_init[i], p_init[i], loc, &e[i]), out_free);
+    }
+  }
+  /* Constrained particles are chosen once, in the initial configuration. */
+  for (int b = 0; b < sim->scene->n_bcs; ++b) {
+    const ej_scene_bc *bc = &sim->scene->bcs[b];
+    if ((bc->kind != EJ_BC_FIX && bc->kind != EJ_BC_VELOCITY) || !ej_bc_applies(bc, s->index)) continue;
+    for (ej_idx i = 0; i < s->n; ++i)
+      if (!bc->region || ej_shape_contains(bc->region, x + 3 * i)) {
+        s->bc_mask[i] |= 1u << b;
+        for (int c = 0; c < 3; ++c)
+          if (bc->comp[c]) v[3 * i + c] = bc->kind == EJ_BC_VELOCITY ? bc->velocity[c] : 0;
+      }
+  }
+out_free:
+  ej_free(rho_init);
+  ej_free(p_init);
+  return rc;
+}
+
+static ej_err ej_sets_create(ej_sim *sim)
+{
+  const ej_scene *sc = sim->scene;
+  sim->sets = ej_calloc((size_t)sc->n_sets, sizeof *sim->sets);
+  EJ_ENSURE(sim->sets, EJ_ERR_MEM, "out of memory");
+  for (int i = 0; i < sc->n_sets; ++i) {
+    const ej_scene_set *ss = &sc->sets[i];
+    ej_set *s;
+    EJ_TRY(ej_set_create(ss->name, i, sc->dimension, &s));
+    sim->sets[sim->n_sets++] = s;
+    s->mops = ss->method_ops;
+    s->mconfig = ss->method_config;
+    s->model = &sim->models[ss->material];
+    ej_decl d = {.set = s};
+    EJ_TRY(s->mops->declare(s->mconfig, sc->dimension, &d));
+    if (s->nbr_config == EJ_NBR_REFERENCE) {
+      static const ej_field_decl x0 = {.name = "x0", .kind = EJ_VEC3, .flags = EJ_FIELD_POSITION, .unit = "m",
+                                       .doc = "reference position"};
+      EJ_TRY(ej_set_add_field(s, &x0, NULL));
+    }
+    ej_points pts = {0};
+    EJ_TRY(ej_scene_set_points(sc, i, &pts));
+    s->n = pts.n;
+    ej_err rc = ej_set_reserve(s, pts.n + pts.n / 4 + 64);
+    if (rc == EJ_OK) rc = ej_set_initial(sim, s, ss, &pts);
+    ej_points_free(&pts);
+    EJ_TRY(rc);
+    EJ_TRY(s->mops->create(s->mconfig, s, s->model, &s->mstate));
+    if (s->nbr_config != EJ_NBR_NONE) EJ_TRY(ej_nbrlist_create(&s->list));
+  }
+  return EJ_OK;
+}
+
+static ej_err ej_check_output_fields(ej_sim *sim)
+{
+  const ej_scene *sc = sim->scene;
+  for (int f = 0; f < sc->n_output_fields; ++f) {
+    bool found = false;
+    const char *cands[EJ_MAX_FIELDS * 4];
+    int nc = 0;
+    for (int i = 0; i < sim->n_sets; ++i) {
+      found |= ej_set_find_field(sim->sets[i], sc->output_fields[f]) >= 0;
+      for (int k = 0; k < sim->sets[i]->n_fields && nc < EJ_MAX_FIELDS * 4; ++k)
+        cands[nc++] = sim->sets[i]->fields[k].name;
+    }
+    if (!found) {
+      const char *near = ej_nearest_word(sc->output_fields[f], cands, nc);
+      if (near)
+        return ej_error_input(&sc->output_field_locs[f], "unknown output field '%s'; did you mean '%s'?",
+                              sc->output_fields[f], near);
+      return ej_error_input(&sc->output_field_locs[f], "unknown output field '%s' (no set has it)",
+                            sc->output_fields[f]);
+    }
+  }
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ ghosts and rebuilds */
+
+static int ej_xform_index(ej_sim *sim, const ej_xform *t)
+{
+  for (int k = 0; k < sim->n_xforms; ++k)
+    if (!memcmp(&sim->xforms[k], t, sizeof *t)) return k;
+  if (sim->n_xforms == EJ_MAX_XFORMS) return -1;
+  sim->xforms[sim->n_xforms] = *t;
+  return sim->n_xforms++;
+}
+
+/* c = a after b: x -> Qa (Qb x + bb) + ba */
+static void ej_xform_compose(const ej_xform *a, const ej_xform *b, ej_xform *c)
+{
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j)
+      c->Q[3 * i + j] = a->Q[3 * i] * b->Q[j] + a->Q[3 * i + 1] * b->Q[3 + j] + a->Q[3 * i + 2] * b->Q[6 + j];
+    c->b[i] = a->Q[3 * i] * b->b[0] + a->Q[3 * i + 1] * b->b[1] + a->Q[3 * i + 2] * b->b[2] + a->b[i];
+  }
+}
+
+static ej_err ej_ghost_push(ej_sim *sim, ej_set *s, ej_idx src, const ej_xform *t)
+{
+  int k = ej_xform_index(sim, t);
+  EJ_ENSURE(k >= 0, EJ_ERR_UNSUPPORTED, "too many distinct ghost transforms (more than %d)", EJ_MAX_XFORMS);
+  if (s->n + s->n_ghost >= s->cap) EJ_TRY(ej_set_reserve(s, 2 * s->cap + 64));
+  s->ghost_src[s->n_ghost] = src;
+  s->ghost_xf[s->n_ghost] = (uint8_t)k;
+  s->n_ghost++;
+  return EJ_OK;
+}
+
+/* Ghost images of particles within cutoff of each symmetry plane and periodic face, built
+ * from the positions at the last rebuild (x_build) so that a restart rebuilds the same. */
+static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, ej_real cutoff)
+{
+  const ej_scene *sc = sim->scene;
+  const ej_real *xb = s->fields[s->f_xb].data;
+  s->n_ghost = 0;
+  for (int b = 0; b < sc->n_bcs; ++b) {
+    const ej_scene_bc *bc = &sc->bcs[b];
+    if ((bc->kind != EJ_BC_SYMMETRY && bc->kind != EJ_BC_PERIODIC) || !ej_bc_applies(bc, s->index)) continue;
+    const ej_idx n_images = s->n + s->n_ghost; /* images of images give edges and corners */
+    for (ej_idx g = 0; g < n_images; ++g) {
+      ej_idx src = g < s->n ? g : s->ghost_src[g - s->n];
+      const ej_xform *cur = &sim->xforms[g < s->n ? 0 : s->ghost_xf[g - s->n]];
+      ej_real y[3];
+      for (int r = 0; r < 3; ++r)
+        y[r] = cur->Q[3 * r] * xb[3 * src] + cur->Q[3 * r + 1] * xb[3 * src + 1] + cur->Q[3 * r + 2] * xb[3 * src + 2] +
+               cur->b[r];
+      if (bc->kind == EJ_BC_SYMMETRY) {
+        const ej_real *nn = bc->normal, *p0 = bc->point;
+        ej_real d = (y[0] - p0[0]) * nn[0] + (y[1] - p0[1]) * nn[1] + (y[2] - p0[2]) * nn[2];
+        if (d < 0 || d >= cutoff) continue;
+        ej_xform mirror = {.Q = {0}};
+        ej_real pn = p0[0] * nn[0] + p0[1] * nn[1] + p0[2] * nn[2];
+        for (int i = 0; i < 3; ++i) {
+          for (int j = 0; j < 3; ++j) mirror.Q[3 * i + j] = (i == j) - 2 * nn[i] * nn[j];
+          mirror.b[i] = 2 * pn * nn[i];
+        }
+        ej_xform t;
+        ej_xform_compose(&mirror, cur, &t);
+        EJ_TRY(ej_ghost_push(sim, s, src, &t));
+      } else {
+        const ej_real L = bc->hi - bc->lo;
+        for (int side = 0; side < 2; ++side) {
+          bool near = side == 0 ? y[bc->axis] - bc->lo < cutoff : bc->hi - y[bc->axis] <= cutoff;
+          if (!near) continue;
+          ej_xform shift = {.Q = {1, 0, 0, 0, 1, 0, 0, 0, 1}};
+          shift.b[bc->axis] = side == 0 ? L : -L;
+          ej_xform t;
+          ej_xform_compose(&shift, cur, &t);
+          EJ_TRY(ej_ghost_push(sim, s, src, &t));
+        }
+      }
+    }
+  }
+  return EJ_OK;
+}
+
+/* Positions and radii of owned + ghost particles at the last rebuild, for the list build. */
+static ej_err ej_build_points(ej_sim *sim, ej_set *s, ej_real **xs, ej_real **rs)
+{
+  const ej_idx nt = s->n + s->n_ghost;
+  ej_real *x = ej_malloc((size_t)nt * 3 * sizeof *x), *r = ej_malloc((size_t)nt * sizeof *r);
+  if (!x || !r) {
+    ej_free(x);
+    ej_free(r);
+    EJ_FAIL(EJ_ERR_MEM, "out of memory");
+  }
+  const ej_real *xb = s->fields[s->f_xb].data, *rb = s->fields[s->f_rb].data;
+  memcpy(x, xb, (size_t)s->n * 3 * sizeof *x);
+  memcpy(r, rb, (size_t)s->n * sizeof *r);
+  for (ej_idx g = 0; g < s->n_ghost; ++g) {
+    const ej_xform *t = &sim->xforms[s->ghost_xf[g]];
+    const ej_real *p = xb + 3 * s->ghost_src[g];
+    for (int k = 0; k < 3; ++k)
+      x[3 * (s->n + g) + k] = t->Q[3 * k] * p[0] + t->Q[3 * k + 1] * p[1] + t->Q[3 * k + 2] * p[2] + t->b[k];
+    r[s->n + g] = rb[s->ghost_src[g]];
+  }
+  *xs = x;
+  *rs = r;
+  return EJ_OK;
+}
+
+static ej_err ej_support_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)sim, (void)ctx, (void)c;
+  return s->mops->support(s->mstate, s, r, s->radius);
+}
+
+static ej_real ej_set_rmax(const ej_set *s, const ej_real *r)
+{
+  ej_real m = 0;
+  for (ej_idx i = 0; i < s->n; ++i) m = r[i] > m ? r[i] : m;
+  return m;
+}
+
+/* Ghosts and lists from x_build / r_build (shared by a rebuild and a restart). */
+static ej_err ej_lists_from_build(ej_sim *sim)
+{
+  const ej_real skin = sim->scene->skin;
+  for (int i = 0; i < sim->n_sets; ++i) {
+    ej_set *s = sim->sets[i];
+    if (s->nbr_config == EJ_NBR_REFERENCE && !s->list->pub.off) {
+      /* Fixed families: built once in the reference configuration, never rebuilt (bond
+       * state stored by the method stays aligned with the CSR entries). */
+      ej_real *x0 = s->fields[s->f_x0].data, *rb = s->fields[s->f_rb].data;
+      EJ_TRY(ej_nbrlist_build(s->list, s->dim, x0, rb, s->n, x0, rb, s->n, 0, true));
+      continue;
+    }
+    if (s->nbr_config != EJ_NBR_CURRENT) continue;
+    ej_real rmax = ej_set_rmax(s, s->fields[s->f_rb].data);
+    ej_real sk = skin * rmax;
+    EJ_TRY(ej_ghosts_build(sim, s, rmax + sk));
+    ej_real *xs, *rs;
+    EJ_TRY(ej_build_points(sim, s, &xs, &rs));
+    ej_err rc = ej_nbrlist_build(s->list, s->dim, xs, rs, s->n, xs, rs, s->n + s->n_ghost, sk, true);
+    ej_free(xs);
+    ej_free(rs);
+    EJ_TRY(rc);
+  }
+  for (int k = 0; k < sim->n_inter; ++k) {
+    ej_inter *in = &sim->inter[k];
+    ej_real ra = ej_set_rmax(in->a, in->a->fields[in->a->f_rb].data);
+    ej_real rb = ej_set_rmax(in->b, in->b->fields[in->b->f_rb].data);
+    ej_real sk = skin * (ra > rb ? ra : rb);
+    ej_real *xa, *rra, *xb, *rrb;
+    EJ_TRY(ej_build_points(sim, in->a, &xa, &rra));
+    ej_err rc = ej_build_points(sim, in->b, &xb, &rrb);
+    if (rc == EJ_OK) {
+      rc = ej_nbrlist_build(in->list, sim->dim, xa, rra, in->a->n, xb, rrb, in->b->n + in->b->n_ghost, sk, false);
+      ej_free(xb);
+      ej_free(rrb);
+    }
+    ej_free(xa);
+    ej_free(rra);
+    EJ_TRY(rc);
+  }
+  for (int i = 0; i < sim->n_sets; ++i) ej_set_update_ghosts(sim->sets[i], sim->xforms);
+  return EJ_OK;
+}
+
+/* Wraps periodic coordinates, sorts particles in cell order, records x_build / r_build. */
+static ej_err ej_rebuild(ej_sim *sim)
+{
+  const ej_scene *sc = sim->scene;
+  for (int i = 0; i < sim->n_sets; ++i) {
+    ej_set *s = sim->sets[i];
+    ej_real *x = s->fields[s->f_x].data;
+    for (int b = 0; b < sc->n_bcs; ++b) {
+      const ej_scene_bc *bc = &sc->bcs[b];
+      if (bc->kind != EJ_BC_PERIODIC || !ej_bc_applies(bc, i)) continue;
+      const ej_real L = bc->hi - bc->lo;
+      for (ej_idx p = 0; p < s->n; ++p) {
+        ej_real *y = &x[3 * p + bc->axis];
+        if (*y < bc->lo || *y >= bc->hi) *y -= L * floor((*y - bc->lo) / L);
+        if (*y >= bc->hi) *y = bc->lo; /* round-off at the upper face */
+      }
+    }
+    if (s->nbr_config == EJ_NBR_NONE || s->n == 0) continue;
+    /* Reference sets are sorted once, before their families exist. */
+    if (s->nbr_config == EJ_NBR_CURRENT || sim->n_rebuilds == 0) {
+      EJ_TRY(ej_for_chunks(sim, s, ej_support_chunk, NULL));
+      ej_real cell = ej_set_rmax(s, s->radius) * (1 + sc->skin);
+      ej_idx *perm = ej_malloc((size_t)s->n * sizeof *perm);
+      EJ_ENSURE(perm, EJ_ERR_MEM, "out of memory");
+      ej_err rc = ej_nbr_sort_order(s->dim, x, s->n, cell, perm);
+      if (rc == EJ_OK) rc = ej_set_permute(s, perm);
+      ej_free(perm);
+      EJ_TRY(rc);
+      EJ_TRY(ej_for_chunks(sim, s, ej_support_chunk, NULL));
+      memcpy(s->fields[s->f_rb].data, s->radius, (size_t)s->n * sizeof(ej_real));
+    }
+    memcpy(s->fields[s->f_xb].data, x, (size_t)s->n * 3 * sizeof(ej_real));
+  }
+  sim->n_rebuilds++;
+  return ej_lists_from_build(sim);
+}
+
+/* A rebuild is due when a pair now inside max(R_i, R_j) may have been outside the list's
+ * reach at the last build: 2 max|x - x_build| + max(R - R_build) > skin. */
+static ej_err ej_rebuild_due(ej_sim *sim, bool *due)
+{
+  *due = false;
+  for (int i = 0; i < sim->n_sets; ++i) {
+    ej_set *s = sim->sets[i];
+    if (s->nbr_config != EJ_NBR_CURRENT) continue;
+    EJ_TRY(ej_for_chunks(sim, s, ej_support_chunk, NULL));
+    const ej_real *x = s->fields[s->f_x].data, *xb = s->fields[s->f_xb].data, *rb = s->fields[s->f_rb].data;
+    ej_real d2 = 0, grow = 0, rmax = 0;
+    for (ej_idx p = 0; p < s->n; ++p) {
+      ej_real dx = x[3 * p] - xb[3 * p], dy = x[3 * p + 1] - xb[3 * p + 1], dz = x[3 * p + 2] - xb[3 * p + 2];
+      ej_real q = dx * dx + dy * dy + dz * dz;
+      d2 = q > d2 ? q : d2;
+      ej_real g = s->radius[p] - rb[p];
+      grow = g > grow ? g : grow;
+      rmax = rb[p] > rmax ? rb[p] : rmax;
+    }
+    if (2 * sqrt(d2) + grow > sim->scene->skin * rmax) *due = true;
+  }
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ forces */
+
+typedef struct ej_pass_ctx {
+  int pass;
+} ej_pass_ctx;
+
+static ej_err ej_compute_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)sim, (void)c;
+  const ej_pass_ctx *pc = ctx;
+  return s->mops->compute(s->mstate, s, s->list ? &s->list->pub : NULL, pc->pass, r);
+}
+
+typedef struct ej_inter_ctx {
+  ej_inter *in;
+  int pass;
+} ej_inter_ctx;
+
+static ej_err ej_inter_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)sim, (void)s, (void)c;
+  ej_inter_ctx *ic = ctx;
+  return ic->in->ops->compute(ic->in->state, ic->in->a, ic->in->b, &ic->in->list->pub, ic->pass, r);
+}
+
+static ej_err ej_zero_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)sim, (void)ctx, (void)c;
+  for (int k = 0; k < s->n_fields; ++k) {
+    ej_field *f = &s->fields[k];
+    if (k == s->f_a || f->rate_of >= 0)
+      memset((ej_real *)f->data + (size_t)r.begin * f->ncomp, 0, (size_t)(r.end - r.begin) * f->ncomp * sizeof(ej_real));
+  }
+  return EJ_OK;
+}
+
+/* Gravity, then constraints: fixed and prescribed-velocity components get zero acceleration. */
+static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)ctx, (void)c;
+  ej_real *a = s->fields[s->f_a].data;
+  const ej_real *g = sim->scene->gravity;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    a[3 * i] += g[0], a[3 * i + 1] += g[1], a[3 * i + 2] += g[2];
+    uint32_t mask = s->bc_mask[i];
+    for (int b = 0; mask; ++b, mask >>= 1)
+      if (mask & 1u)
+        for (int k = 0; k < 3; ++k)
+          if (sim->scene->bcs[b].comp[k]) a[3 * i + k] = 0;
+  }
+  return EJ_OK;
+}
+
+static ej_err ej_compute_all(ej_sim *sim)
+{
+  int max_pass = 0;
+  for (int i = 0; i < sim->n_sets; ++i) {
+    EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_zero_chunk, NULL));
+    if (sim->sets[i]->mops->n_passes > max_pass) max_pass = sim->sets[i]->mops->n_passes;
+  }
+  for (int pass = 0; pass < max_pass; ++pass) {
+    for (int i = 0; i < sim->n_sets; ++i) {
+      ej_set *s = sim->sets[i];
+      if (pass >= s->mops->n_passes) continue;
+      ej_set_update_ghosts(s, sim->xforms);
+      ej_pass_ctx pc = {pass};
+      EJ_TRY(ej_for_chunks(sim, s, ej_compute_chunk, &pc));
+    }
+    for (int k = 0; k < sim->n_inter; ++k) {
+      ej_inter_ctx ic = {&sim->inter[k], pass};
+      EJ_TRY(ej_for_chunks(sim, sim->inter[k].a, ej_inter_chunk, &ic));
+    }
+  }
+  for (int i = 0; i < sim->n_sets; ++i) EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_body_chunk, NULL));
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ time step */
+
+static ej_err ej_dt_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)ctx;
+  ej_real dt = INFINITY;
+  EJ_TRY(s->mops->stable_dt(s->mstate, s, r, &dt));
+  sim->chunk_scratch[c] = dt;
+  return EJ_OK;
+}
+
+static ej_err ej_next_dt(ej_sim *sim)
+{
+  const ej_scene *sc = sim->scene;
+  ej_real dt = INFINITY;
+  if (sc->dt_fixed > 0) {
+    dt = sc->dt_fixed;
+  } else {
+    for (int i = 0; i < sim->n_sets; ++i) {
+      ej_set *s = sim->sets[i];
+      EJ_TRY(ej_sim_scratch(sim, s));
+      EJ_TRY(ej_for_chunks(sim, s, ej_dt_chunk, NULL));
+      const int64_t nch = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK;
+      for (int64_t c = 0; c < nch; ++c) dt = sim->chunk_scratch[c] < dt ? sim->chunk_scratch[c] : dt;
+    }
+    for (int k = 0; k < sim->n_inter; ++k)
+      if (sim->inter[k].ops->stable_dt) {
+        ej_real d = INFINITY;
+        EJ_TRY(sim->inter[k].ops->stable_dt(sim->inter[k].state, sim->inter[k].a, sim->inter[k].b, &d));
+        dt = d < dt ? d : dt;
+      }
+    dt = ej_comm_min(dt) * sc->cfl;
+  }
+  if (sc->dt_max > 0 && dt > sc->dt_max) dt = sc->dt_max;
+  EJ_ENSURE(isfinite(dt) && dt > 0, EJ_ERR_NUMERIC, "time step collapsed to %g s at step %lld, t = %g s", dt,
+            (long long)sim->step, sim->t);
+  sim->dt = dt;
+  return EJ_OK;
+}
+
+/* First half kick, drift, and the predictor of velocity and rate fields for the force
+ * evaluation at t_n+1 (velocity Verlet; state fields integrated with the same trapezoid). */
+static ej_err ej_kick_drift_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)ctx, (void)c;
+  const ej_real dt = sim->dt, h = 0.5 * sim->dt;
+  ej_real *x = s->fields[s->f_x].data, *v = s->fields[s->f_v].data, *a = s->fields[s->f_a].data;
+  ej_real *vh = ej_set_field(s, "v_half");
+  const ej_scene *sc = sim->scene;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      vh[3 * i + k] = v[3 * i + k] + h * a[3 * i + k];
+      x[3 * i + k] += dt * vh[3 * i + k];
+      v[3 * i + k] = vh[3 * i + k] + h * a[3 * i + k];
+    }
+    for (int b = 0; b < sc->n_bcs; ++b) {
+      const ej_scene_bc *bc = &sc->bcs[b];
+      if (bc->kind != EJ_BC_SYMMETRY || !ej_bc_applies(bc, s->index)) continue;
+      /* A particle that crossed a symmetry plane is reflected back, like its mirror image. */
+      const ej_real *n = bc->normal;
+      ej_real d = (x[3 * i] - bc->point[0]) * n[0] + (x[3 * i + 1] - bc->point[1]) * n[1] +
+                  (x[3 * i + 2] - bc->point[2]) * n[2];
+      if (d >= 0) continue;
+      ej_real vn = vh[3 * i] * n[0] + vh[3 * i + 1] * n[1] + vh[3 * i + 2] * n[2];
+      ej_real wn = v[3 * i] * n[0] + v[3 * i + 1] * n[1] + v[3 * i + 2] * n[2];
+      for (int k = 0; k < 3; ++k) {
+        x[3 * i + k] -= 2 * d * n[k];
+        vh[3 * i + k] -= 2 * vn * n[k];
+        v[3 * i + k] -= 2 * wn * n[k];
+      }
+    }
+  }
+  for (int k = 0; k < s->n_fields; ++k) {
+    ej_field *f = &s->fields[k];
+    if (f->rate < 0) continue;
+    ej_real *y = f->data, *yh = s->fields[f->half].data;
+    const ej_real *rt = s->fields[f->rate].data;
+    const int nc = f->ncomp;
+    for (ej_idx i = r.begin * nc; i < r.end * nc; ++i) {
+      yh[i] = y[i] + h * rt[i];
+      y[i] = yh[i] + h * rt[i];
+    }
+  }
+  return EJ_OK;
+}
+
+static ej_err ej_kick_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)ctx, (void)c;
+  const ej_real h = 0.5 * sim->dt;
+  ej_real *v = s->fields[s->f_v].data, *a = s->fields[s->f_a].data;
+  const ej_real *vh = ej_set_field(s, "v_half");
+  for (ej_idx i = r.begin; i < r.end; ++i)
+    for (int k = 0; k < 3; ++k) v[3 * i + k] = vh[3 * i + k] + h * a[3 * i + k];
+  for (int k = 0; k < s->n_fields; ++k) {
+    ej_field *f = &s->fields[k];
+    if (f->rate < 0) continue;
+    ej_real *y = f->data;
+    const ej_real *yh = s->fields[f->half].data, *rt = s->fields[f->rate].data;
+    const int nc = f->ncomp;
+    for (ej_idx i = r.begin * nc; i < r.end * nc; ++i) y[i] = yh[i] + h * rt[i];
+  }
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ diagnostics */
+
+enum { EJ_R_KIN, EJ_R_INT, EJ_R_VISC, EJ_R_PLAS, EJ_R_HG, EJ_R_PX, EJ_R_PY, EJ_R_PZ };
+
+static ej_err ej_energy_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)ctx;
+  ej_real acc[EJ_NRED] = {0};
+  const ej_real *v = s->fields[s->f_v].data, *m = s->fields[s->f_m].data;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    acc[EJ_R_KIN] += 0.5 * m[i] * (v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]);
+    acc[EJ_R_PX] += m[i] * v[3 * i];
+    acc[EJ_R_PY] += m[i] * v[3 * i + 1];
+    acc[EJ_R_PZ] += m[i] * v[3 * i + 2];
+  }
+  for (int k = 0; k < s->n_fields; ++k) {
+    const ej_field *f = &s->fields[k];
+    int slot = f->energy == EJ_ENERGY_INTERNAL ? EJ_R_INT
+               : f->energy == EJ_ENERGY_VISCOUS ? EJ_R_VISC
+               : f->energy == EJ_ENERGY_PLASTIC ? EJ_R_PLAS
+               : f->energy == EJ_ENERGY_HOURGLASS ? EJ_R_HG
+                                                   : -1;
+    if (slot < 0) continue;
+    const ej_real *e = f->data;
+    for (ej_idx i = r.begin; i < r.end; ++i) acc[slot] += m[i] * e[i];
+  }
+  memcpy(sim->chunk_scratch + c * EJ_NRED, acc, sizeof acc);
+  return EJ_OK;
+}
+
+/* Work of gravity over the step, exact for the mid-step velocity. */
+static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)ctx;
+  const ej_real *vh = ej_set_field(s, "v_half"), *m = s->fields[s->f_m].data, *g = sim->scene->gravity;
+  ej_real w = 0;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    ej_real gv = 0;
+    uint32_t mask = s->bc_mask[i];
+    bool fixed[3] = {false, false, false};
+    for (int b = 0; mask; ++b, mask >>= 1)
+      if (mask & 1u)
+        for (int k = 0; k < 3; ++k) fixed[k] |= sim->scene->bcs[b].comp[k];
+    for (int k = 0; k < 3; ++k)
+      if (!fixed[k]) gv += g[k] * vh[3 * i + k];
+    w += m[i] * gv;
+  }
+  sim->chunk_scratch[c * EJ_NRED] = w * sim->dt;
+  return EJ_OK;
+}
+
+static ej_err ej_energy_update(ej_sim *sim, bool with_work)
+{
+  ej_real tot[EJ_NRED] = {0}, work = 0;
+  for (int i = 0; i < sim->n_sets; ++i) {
+    ej_set *s = sim->sets[i];
+    EJ_TRY(ej_sim_scratch(sim, s));
+    const int64_t nch = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK;
+    if (with_work) {
+      EJ_TRY(ej_for_chunks(sim, s, ej_work_chunk, NULL));
+      for (int64_t c = 0; c < nch; ++c) work += sim->chunk_scratch[c * EJ_NRED];
+    }
+    EJ_TRY(ej_for_chunks(sim, s, ej_energy_chunk, NULL));
+    for (int64_t c = 0; c < nch; ++c)
+      for (int k = 0; k < EJ_NRED; ++k) tot[k] += sim->chunk_scratch[c * EJ_NRED + k];
+  }
+  ej_comm_sum(tot, EJ_NRED);
+  ej_comm_sum(&work, 1);
+  ej_energy *E = &sim->energy;
+  E->kinetic = tot[EJ_R_KIN];
+  E->internal = tot[EJ_R_INT];
+  E->viscous = tot[EJ_R_VISC];
+  E->plastic = tot[EJ_R_PLAS];
+  E->hourglass = tot[EJ_R_HG];
+  E->momentum[0] = tot[EJ_R_PX], E->momentum[1] = tot[EJ_R_PY], E->momentum[2] = tot[EJ_R_PZ];
+  E->external += work;
+  E->balance = E->kinetic + E->internal - E->total0 - E->external;
+  return EJ_OK;
+}
+
+/* NaN/inf watchdog over every ghosted real field: the first bad particle (lowest index, then
+ * lowest field) is reported, whatever the thread count. */
+static ej_err ej_watch_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)ctx;
+  ej_real bad_p = -1, bad_f = -1;
+  for (ej_idx p = r.begin; p < r.end && bad_p < 0; ++p)
+    for (int k = 0; k < s->n_fields && bad_p < 0; ++k) {
+      const ej_field *f = &s->fields[k];
+      if (f->kind == EJ_INT || (f->flags & EJ_FIELD_NO_GHOST)) continue;
+      const ej_real *d = (const ej_real *)f->data + (size_t)p * f->ncomp;
+      for (int q = 0; q < f->ncomp; ++q)
+        if (!isfinite(d[q])) {
+          bad_p = p;
+          bad_f = k;
+          break;
+        }
+    }
+  sim->chunk_scratch[c * EJ_NRED] = bad_p;
+  sim->chunk_scratch[c * EJ_NRED + 1] = bad_f;
+  return EJ_OK;
+}
+
+static ej_err ej_watchdog(ej_sim *sim)
+{
+  for (int i = 0; i < sim->n_sets; ++i) {
+    ej_set *s = sim->sets[i];
+    EJ_TRY(ej_sim_scratch(sim, s));
+    EJ_TRY(ej_for_chunks(sim, s, ej_watch_chunk, NULL));
+    const int64_t nch = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK;
+    for (int64_t c = 0; c < nch; ++c) {
+      if (sim->chunk_scratch[c * EJ_NRED] < 0) continue;
+      ej_idx bad = (ej_idx)sim->chunk_scratch[c * EJ_NRED];
+      const ej_field *f = &s->fields[(int)sim->chunk_scratch[c * EJ_NRED + 1]];
+      const ej_real *x = s->fields[s->f_x].data;
+      const int32_t *id = s->fields[s->f_id].data;
+      EJ_FAIL(EJ_ERR_NUMERIC,
+              "watchdog: non-finite '%s' at step %lld, t = %.6g s, set '%s', particle id %d at (%.6g, %.6g, %.6g)",
+              f->name, (long long)sim->step, sim->t, s->name, id[bad], x[3 * bad], x[3 * bad + 1], x[3 * bad + 2]);
+    }
+  }
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ output scheduling */
+
+static ej_err ej_maybe_output(ej_sim *sim, bool last)
+{
+  const ej_scene *sc = sim->scene;
+  EJ_TRY(ej_output_series(sim->out, sim));
+  const ej_real eps = 1e-12 * (sc->t_end > 0 ? sc->t_end : 1);
+  if (last || sim->t >= sim->next_output - eps) {
+    EJ_TRY(ej_output_frame(sim->out, sim));
+    sim->frame++;
+    if (sc->output_every > 0)
+      while (sim->next_output <= sim->t + eps) sim->next_output += sc->output_every;
+    else
+      sim->next_output = INFINITY;
+  }
+  if (last || (sc->checkpoint_every > 0 && sim->t >= sim->next_checkpoint - eps)) {
+    if (sc->checkpoint_every > 0)
+      while (sim->next_checkpoint <= sim->t + eps) sim->next_checkpoint += sc->checkpoint_every;
+    EJ_TRY(ej_output_checkpoint(sim->out, sim));
+  }
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ public API */
+
+ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts, ej_sim **out)
+{
+  ej_sim *sim = ej_calloc(1, sizeof *sim);
+  EJ_ENSURE(sim, EJ_ERR_MEM, "out of memory");
+  ej_err rc;
+  sim->scene = scene;
+  sim->reg = reg;
+  sim->dim = scene->dimension;
+  sim->chunk = EJ_CHUNK;
+  sim->xforms[0] = (ej_xform){.Q = {1, 0, 0, 0, 1, 0, 0, 0, 1}};
+  sim->n_xforms = 1;
+  if (opts && opts->threads > 0) {
+#ifdef _OPENMP
+    omp_set_num_threads(opts->threads);
+#endif
+  }
+  sim->progress = opts && opts->progress;
+  if (opts && opts->t_end > 0) scene->t_end = opts->t_end;
+  EJ_TRY_GOTO(rc, ej_models_create(sim), out_destroy);
+  EJ_TRY_GOTO(rc, ej_sets_create(sim), out_destroy);
+  EJ_TRY_GOTO(rc, ej_check_output_fields(sim), out_destroy);
+  sim->inter = ej_calloc((size_t)scene->n_interactions + 1, sizeof *sim->inter);
+  EJ_ENSURE(sim->inter, EJ_ERR_MEM, "out of memory");
+  for (int k = 0; k < scene->n_interactions; ++k) {
+    const ej_scene_interaction *si = &scene->interactions[k];
+    ej_inter *in = &sim->inter[sim->n_inter++];
+    in->ops = si->ops;
+    in->config = si->config;
+    in->a = sim->sets[si->set_a];
+    in->b = sim->sets[si->set_b];
+    EJ_TRY_GOTO(rc, ej_nbrlist_create(&in->list), out_destroy);
+    EJ_TRY_GOTO(rc, in->ops->create(in->config, in->a, in->b, &in->state), out_destroy);
+  }
+  const char *path = opts && opts->output ? opts->output : scene->output_file;
+  sim->out_path = ej_strdup(path);
+  EJ_ENSURE(sim->out_path, EJ_ERR_MEM, "out of memory");
+  if (opts && opts->check_only) {
+    *out = sim;
+    return EJ_OK;
+  }
+  EJ_TRY_GOTO(rc, ej_output_open(&sim->out, sim, sim->out_path), out_destroy);
+
+  if (opts && opts->restart) {
+    EJ_TRY_GOTO(rc, ej_checkpoint_read(opts->restart, sim), out_destroy);
+    EJ_TRY_GOTO(rc, ej_lists_from_build(sim), out_destroy);
+  } else {
+    for (int i = 0; i < sim->n_sets; ++i)
+      if (sim->sets[i]->mops->setup) EJ_TRY_GOTO(rc, sim->sets[i]->mops->setup(sim->sets[i]->mstate, sim->sets[i]), out_destroy);
+    EJ_TRY_GOTO(rc, ej_rebuild(sim), out_destroy);
+    EJ_TRY_GOTO(rc, ej_compute_all(sim), out_destroy);
+    EJ_TRY_GOTO(rc, ej_energy_update(sim, false), out_destroy);
+    sim->energy.total0 = sim->energy.kinetic + sim->energy.internal;
+    sim->energy.balance = 0;
+    EJ_TRY_GOTO(rc, ej_next_dt(sim), out_destroy);
+    sim->next_output = 0;
+    sim->next_checkpoint = scene->checkpoint_every > 0 ? scene->checkpoint_every : INFINITY;
+    EJ_TRY_GOTO(rc, ej_watchdog(sim), out_destroy);
+    EJ_TRY_GOTO(rc, ej_maybe_output(sim, false), out_destroy);
+  }
+  *out = sim;
+  return EJ_OK;
+out_destroy:
+  ej_sim_destroy(sim);
+  return rc;
+}
+
+static void ej_progress(ej_sim *sim, double t0, int64_t step0, int64_t psteps, bool final)
+{
+  static double last;
+  double now = ej_wall();
+  if (!final && now - last < 0.5) return;
+  last = now;
+  double el = now - t0, frac = sim->scene->t_end > 0 ? sim->t / sim->scene->t_end : 1;
+  double rate = el > 0 ? (double)psteps / el : 0;
+  double eta = frac > 0 && sim->step > step0 ? el * (1 - frac) / frac : 0;
+  fprintf(stderr, "\rstep %lld  t %.4e s  dt %.3e s  %5.1f%%  ETA %02d:%02d  %.3g particle-steps/s%s",
+          (long long)sim->step, sim->t, sim->dt, 100 * frac, (int)(eta / 60), (int)eta % 60, rate, final ? "\n" : "");
+  fflush(stderr);
+}
+
+ej_err ej_sim_run(ej_sim *sim)
+{
+  const ej_scene *sc = sim->scene;
+  const double t0 = ej_wall();
+  const int64_t step0 = sim->step;
+  int64_t n_total = 0, psteps = 0;
+  for (int i = 0; i < sim->n_sets; ++i) n_total += sim->sets[i]->n;
+  ej_err rc = EJ_OK;
+  const ej_real eps = 1e-12 * (sc->t_end > 0 ? sc->t_end : 1);
+  while (sim->t < sc->t_end - eps && (sc->max_steps <= 0 || sim->step < sc->max_steps)) {
+    if (sim->t + sim->dt > sc->t_end) sim->dt = sc->t_end - sim->t; /* land on the end time */
+    for (int i = 0; i < sim->n_sets; ++i) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_drift_chunk, NULL), out);
+    sim->t += sim->dt;
+    sim->step++;
+    bool due;
+    EJ_TRY_GOTO(rc, ej_rebuild_due(sim, &due), out);
+    if (due) EJ_TRY_GOTO(rc, ej_rebuild(sim), out);
+    EJ_TRY_GOTO(rc, ej_compute_all(sim), out);
+    for (int i = 0; i < sim->n_sets; ++i) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_chunk, NULL), out);
+    for (int i = 0; i < sim->n_sets; ++i) {
+      ej_set *s = sim->sets[i];
+      if (!s->mops->post_step) continue;
+      const int64_t nch = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK;
+      for (int64_t c = 0; c < nch; ++c) {
+        ej_range r = {(ej_idx)(c * EJ_CHUNK), (ej_idx)((c + 1) * EJ_CHUNK < s->n ? (c + 1) * EJ_CHUNK : s->n)};
+        EJ_TRY_GOTO(rc, s->mops->post_step(s->mstate, s, r), out);
+      }
+    }
+    EJ_TRY_GOTO(rc, ej_energy_update(sim, true), out);
+    EJ_TRY_GOTO(rc, ej_watchdog(sim), out);
+    const ej_real dt_used = sim->dt;
+    EJ_TRY_GOTO(rc, ej_next_dt(sim), out);
+    psteps += n_total;
+    bool last = !(sim->t < sc->t_end - eps && (sc->max_steps <= 0 || sim->step < sc->max_steps));
+    /* The series records the step just taken. */
+    ej_real dt_next = sim->dt;
+    sim->dt = dt_used;
+    rc = ej_maybe_output(sim, last);
+    sim->dt = dt_next;
+    EJ_TRY_GOTO(rc, rc, out);
+    if (sim->progress) ej_progress(sim, t0, step0, psteps, false);
+  }
+out:
+  if (sim->progress) ej_progress(sim, t0, step0, psteps, true);
+  ej_err crc = ej_output_close(sim->out, rc == EJ_OK);
+  sim->out = NULL;
+  if (rc == EJ_OK) rc = crc;
+  return rc;
+}
+
+void ej_sim_destroy(ej_sim *sim)
+{
+  if (!sim) return;
+  if (sim->out) ej_output_close(sim->out, false);
+  for (int k = 0; k < sim->n_inter; ++k) {
+    if (sim->inter[k].state) sim->inter[k].ops->destroy(sim->inter[k].state);
+    ej_nbrlist_destroy(sim->inter[k].list);
+  }
+  ej_free(sim->inter);
+  for (int i = 0; i < sim->n_sets; ++i) {
+    ej_set *s = sim->sets[i];
+    if (s->mstate) s->mops->destroy(s->mstate);
+    ej_set_destroy(s);
+  }
+  ej_free(sim->sets);
+  ej_models_destroy(sim);
+  ej_free(sim->chunk_scratch);
+  ej_free(sim->out_path);
+  ej_free(sim);
+}
