@@ -910,12 +910,13 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
     *out = sim;
     return EJ_OK;
   }
-  EJ_TRY_GOTO(rc, ej_output_open(&sim->out, sim, sim->out_path), out_destroy);
-
   if (opts && opts->restart) {
+    /* Read before opening the output: the restart file may be this run's own .partial. */
     EJ_TRY_GOTO(rc, ej_checkpoint_read(opts->restart, sim), out_destroy);
+    EJ_TRY_GOTO(rc, ej_output_open(&sim->out, sim, sim->out_path), out_destroy);
     EJ_TRY_GOTO(rc, ej_lists_from_build(sim), out_destroy);
   } else {
+    EJ_TRY_GOTO(rc, ej_output_open(&sim->out, sim, sim->out_path), out_destroy);
     for (int i = 0; i < sim->n_sets; ++i)
       if (sim->sets[i]->mops->setup) EJ_TRY_GOTO(rc, sim->sets[i]->mops->setup(sim->sets[i]->mstate, sim->sets[i]), out_destroy);
     EJ_TRY_GOTO(rc, ej_rebuild(sim), out_destroy);
