@@ -20,7 +20,7 @@
  * cell coordinates (about 1e-16 times the number of cells). */
 #define EJ_CELL_MARGIN 1e-6
 #ifndef EJ_CELL_SPLIT
-#define EJ_CELL_SPLIT 2
+#define EJ_CELL_SPLIT 1
 #endif
 
 /* A uniform grid over a bounding box; components >= dim have one cell. */
@@ -96,10 +96,9 @@ static EJ_ALWAYS_INLINE int64_t ej_grid_cell(const ej_grid *g, const ej_real *x)
   return c;
 }
 
-/* Insertion sort for the short and nearly sorted rows that particles in cell order give;
- * quicksort (median of three, recursing on the smaller side) for the rest. Row entries are
- * distinct. */
-static void ej_idx_sort(ej_idx *a, int64_t n)
+/* Quicksort (median of three, recursing on the smaller side) with insertion sort for short
+ * ranges. Row entries are distinct. */
+static void ej_idx_qsort(ej_idx *a, int64_t n)
 {
   while (n > 24) {
     const int64_t m = n / 2;
@@ -120,11 +119,11 @@ static void ej_idx_sort(ej_idx *a, int64_t n)
     /* a[0..j] <= piv <= a[j+1..n) */
     const int64_t nl = j + 1;
     if (nl < n - nl) {
-      ej_idx_sort(a, nl);
+      ej_idx_qsort(a, nl);
       a += nl;
       n -= nl;
     } else {
-      ej_idx_sort(a + nl, n - nl);
+      ej_idx_qsort(a + nl, n - nl);
       n = nl;
     }
   }
@@ -137,6 +136,53 @@ static void ej_idx_sort(ej_idx *a, int64_t n)
     }
     a[k] = v;
   }
+}
+
+#define EJ_SORT_RUNS 64
+#define EJ_SORT_BUF 1024
+
+/* A row is a concatenation of ascending runs (one per cell, or one per cell row when the
+ * particles are in cell order, then already sorted): natural merge sort, falling back to
+ * quicksort for rows with too many runs or too long for the stack buffer. */
+static void ej_idx_sort(ej_idx *a, int64_t n)
+{
+  int64_t b[EJ_SORT_RUNS + 1];
+  int nr = 0;
+  b[0] = 0;
+  for (int64_t k = 1; k < n; k++) {
+    if (a[k] < a[k - 1]) {
+      if (nr == EJ_SORT_RUNS - 1 || n > EJ_SORT_BUF) {
+        ej_idx_qsort(a, n);
+        return;
+      }
+      b[++nr] = k;
+    }
+  }
+  b[++nr] = n;
+  if (nr == 1) return;
+  ej_idx tmp[EJ_SORT_BUF];
+  ej_idx *src = a, *dst = tmp;
+  while (nr > 1) {
+    int m = 0;
+    for (int r = 0; r < nr; r += 2) {
+      if (r + 1 == nr) { /* odd run out: copy */
+        memcpy(dst + b[r], src + b[r], (size_t)(b[r + 1] - b[r]) * sizeof *src);
+      } else {
+        int64_t i = b[r], j = b[r + 1], k = b[r];
+        const int64_t ie = b[r + 1], je = b[r + 2];
+        while (i < ie && j < je) dst[k++] = src[i] < src[j] ? src[i++] : src[j++];
+        while (i < ie) dst[k++] = src[i++];
+        while (j < je) dst[k++] = src[j++];
+      }
+      b[m++] = b[r];
+    }
+    b[m] = n;
+    nr = m;
+    ej_idx *t = src;
+    src = dst;
+    dst = t;
+  }
+  if (src != a) memcpy(a, src, (size_t)n * sizeof *a);
 }
 
 /* Discards the contents and grows a scratch array to at least need elements (plus slack

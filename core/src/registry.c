@@ -318,13 +318,19 @@ static ej_err ej_registry_add_plugin(ej_registry *reg, const ej_plugin_info *inf
   EJ_ENSURE(pcopy, EJ_ERR_MEM, "out of memory");
   reg->plugins[reg->n_plugins] = (ej_reg_plugin){.info = info, .path = pcopy};
   reg->loading = reg->n_plugins;
+  int depth = ej_error_count();
   ej_err rc = info->register_all(reg);
   reg->loading = -1;
   if (rc != EJ_OK) {
     for (int k = 0; k < EJ_KIND_COUNT; ++k) reg->n_items[k] = before[k];
     ej_free(pcopy);
-    return ej_error_push(EJ_ERR_PLUGIN, __FILE__, __LINE__, __func__, "%s: plugin '%s' failed to register",
-                         path, info->name);
+    /* One message that names the file and says why. */
+    char why[EJ_ERROR_MSG_LEN] = "";
+    const ej_error_frame *cause = ej_error_cause();
+    if (cause) snprintf(why, sizeof why, "%s", cause->msg);
+    ej_error_truncate(depth);
+    return ej_error_push(EJ_ERR_PLUGIN, __FILE__, __LINE__, __func__, "%s: plugin '%s' failed to register: %s",
+                         path, info->name, why[0] ? why : "register_all returned an error");
   }
   reg->n_plugins++;
   return EJ_OK;
@@ -407,7 +413,7 @@ ej_err ej_registry_load_all(ej_registry *reg)
       }
     }
     closedir(dir);
-    qsort(names, (size_t)n, sizeof *names, ej_cmp_str); /* deterministic order */
+    if (n) qsort(names, (size_t)n, sizeof *names, ej_cmp_str); /* deterministic order */
     for (int i = 0; i < n; ++i) {
       char name[256];
       snprintf(name, sizeof name, "%.*s", (int)(strlen(names[i]) - 6), names[i] + 3);

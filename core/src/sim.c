@@ -186,9 +186,8 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
   int32_t *id = s->fields[s->f_id].data;
   ej_real *rho = ej_set_field(s, "rho"), *e = ej_set_field(s, "e");
   ej_real *rho_init = ej_malloc((size_t)s->n * sizeof *rho_init);
-  ej_real *p_init = ej_malloc((size_t)s->n * sizeof *p_init);
   ej_err rc = EJ_OK;
-  if (!rho_init || !p_init) {
+  if (!rho_init) {
     rc = ej_error_push(EJ_ERR_MEM, __FILE__, __LINE__, __func__, "out of memory");
     goto out_free;
   }
@@ -198,7 +197,6 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
     vol[i] = pts->vol[i];
     id[i] = i;
     rho_init[i] = model->rho0;
-    p_init[i] = NAN;
     if (pts->spacing[i] < s->spacing_min) s->spacing_min = pts->spacing[i];
   }
   if (s->f_x0 >= 0) memcpy(s->fields[s->f_x0].data, x, (size_t)s->n * 3 * sizeof *x);
@@ -218,8 +216,8 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
       if (in->region && !ej_shape_contains(in->region, x + 3 * i)) continue;
       if (in->has_rho) rho_init[i] = in->rho;
       if (in->has_v) memcpy(v + 3 * i, in->v, 3 * sizeof *v);
-      if (in->has_e) e[i] = in->e, p_init[i] = NAN;
-      if (in->has_p) p_init[i] = in->p;
+      if (in->has_e) e[i] = in->e;
+      if (in->has_p) EJ_TRY_GOTO(rc, ej_eos_invert(model->eos, rho_init[i], in->p, &in->loc, &e[i]), out_free);
       mass_in += rho_init[i] * vol[i];
     }
     if (in->has_energy_total) {
@@ -234,12 +232,6 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
   for (ej_idx i = 0; i < s->n; ++i) {
     m[i] = rho_init[i] * vol[i];
     if (rho) rho[i] = rho_init[i];
-    if (!isnan(p_init[i])) {
-      const ej_loc *loc = &ss->loc;
-      for (int k = 0; k < ss->n_init; ++k)
-        if (ss->init[k].has_p) loc = &ss->init[k].loc;
-      EJ_TRY_GOTO(rc, ej_eos_invert(model->eos, rho_init[i], p_init[i], loc, &e[i]), out_free);
-    }
   }
   /* Constrained particles are chosen once, in the initial configuration. */
   for (int b = 0; b < sim->scene->n_bcs; ++b) {
@@ -254,7 +246,6 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
   }
 out_free:
   ej_free(rho_init);
-  ej_free(p_init);
   return rc;
 }
 
@@ -352,13 +343,14 @@ static ej_err ej_ghost_push(ej_sim *sim, ej_set *s, ej_idx src, const ej_xform *
 static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, ej_real cutoff)
 {
   const ej_scene *sc = sim->scene;
-  const ej_real *xb = s->fields[s->f_xb].data;
   s->n_ghost = 0;
   for (int b = 0; b < sc->n_bcs; ++b) {
     const ej_scene_bc *bc = &sc->bcs[b];
     if ((bc->kind != EJ_BC_SYMMETRY && bc->kind != EJ_BC_PERIODIC) || !ej_bc_applies(bc, s->index)) continue;
     const ej_idx n_images = s->n + s->n_ghost; /* images of images give edges and corners */
     for (ej_idx g = 0; g < n_images; ++g) {
+      /* re-read: pushing a ghost may grow (reallocate) every field */
+      const ej_real *xb = s->fields[s->f_xb].data;
       ej_idx src = g < s->n ? g : s->ghost_src[g - s->n];
       const ej_xform *cur = &sim->xforms[g < s->n ? 0 : s->ghost_xf[g - s->n]];
       ej_real y[3];
@@ -380,6 +372,11 @@ static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, ej_real cutoff)
         EJ_TRY(ej_ghost_push(sim, s, src, &t));
       } else {
         const ej_real L = bc->hi - bc->lo;
+        if (cutoff > L)
+          return ej_error_input(&bc->loc,
+                                "set '%s': the neighbour search radius %g m exceeds the periodic length %g m; "
+                                "enlarge the period or refine the particles",
+                                s->name, cutoff, L);
         for (int side = 0; side < 2; ++side) {
           bool near = side == 0 ? y[bc->axis] - bc->lo < cutoff : bc->hi - y[bc->axis] <= cutoff;
           if (!near) continue;
@@ -423,7 +420,7 @@ static ej_err ej_build_points(ej_sim *sim, ej_set *s, ej_real **xs, ej_real **rs
 static ej_err ej_support_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
 {
   (void)sim, (void)ctx, (void)c;
-  return s->mops->support(s->mstate, s, r, s->radius);
+  return s->mops->support(s->mstate, s, r, s->radius + r.begin);
 }
 
 static ej_real ej_set_rmax(const ej_set *s, const ej_real *r)
@@ -850,7 +847,6 @@ static ej_err ej_watchdog(ej_sim *sim)
 static ej_err ej_maybe_output(ej_sim *sim, bool last)
 {
   const ej_scene *sc = sim->scene;
-  EJ_TRY(ej_output_series(sim->out, sim));
   const ej_real eps = 1e-12 * (sc->t_end > 0 ? sc->t_end : 1);
   if (last || sim->t >= sim->next_output - eps) {
     EJ_TRY(ej_output_frame(sim->out, sim));
@@ -924,10 +920,11 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
     EJ_TRY_GOTO(rc, ej_energy_update(sim, false), out_destroy);
     sim->energy.total0 = sim->energy.kinetic + sim->energy.internal;
     sim->energy.balance = 0;
+    EJ_TRY_GOTO(rc, ej_watchdog(sim), out_destroy);
     EJ_TRY_GOTO(rc, ej_next_dt(sim), out_destroy);
     sim->next_output = 0;
     sim->next_checkpoint = scene->checkpoint_every > 0 ? scene->checkpoint_every : INFINITY;
-    EJ_TRY_GOTO(rc, ej_watchdog(sim), out_destroy);
+    EJ_TRY_GOTO(rc, ej_output_series(sim->out, sim), out_destroy);
     EJ_TRY_GOTO(rc, ej_maybe_output(sim, false), out_destroy);
   }
   *out = sim;
@@ -985,12 +982,13 @@ ej_err ej_sim_run(ej_sim *sim)
     EJ_TRY_GOTO(rc, ej_next_dt(sim), out);
     psteps += n_total;
     bool last = !(sim->t < sc->t_end - eps && (sc->max_steps <= 0 || sim->step < sc->max_steps));
-    /* The series records the step just taken. */
-    ej_real dt_next = sim->dt;
+    /* The series records the step just taken; checkpoints keep the next step's dt. */
+    const ej_real dt_next = sim->dt;
     sim->dt = dt_used;
-    rc = ej_maybe_output(sim, last);
+    rc = ej_output_series(sim->out, sim);
     sim->dt = dt_next;
     EJ_TRY_GOTO(rc, rc, out);
+    EJ_TRY_GOTO(rc, ej_maybe_output(sim, last), out);
     if (sim->progress) ej_progress(sim, t0, step0, psteps, false);
   }
 out:

@@ -178,6 +178,13 @@ START_TEST(test_degenerate)
     ck_assert_int_eq(check_build(dim, x, r, 1, x, r, 1, 0.1, false), 1);
   }
 
+  /* Dense rows (over a thousand neighbours in random order) take the long-row sort path. */
+  ej_real *dense = cloud(&s, 2500, 3, 0, 6);
+  ej_real *rd = radii(&s, 2500, 2, 1.5);
+  ck_assert_int_gt(check_build(3, dense, rd, 2500, dense, rd, 2500, 0.5, true), 2500 * 600);
+  ej_free(rd);
+  ej_free(dense);
+
   /* All points identical. */
   enum { NI = 60 };
   ej_real xs[3 * NI], rs[NI], zero[NI];

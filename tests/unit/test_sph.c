@@ -56,25 +56,6 @@ static void set_bool(sph_fix *f, const char *name, bool v)
   *(bool *)((char *)f->mcfg + find_param(f->mops->params, name)->offset) = v;
 }
 
-/* The fields sph's declare op asks for. TODO: apply the declare op itself once the core
- * exposes a way to run it on a set (ej_decl is private to sim.c). */
-static void add_sph_fields(ej_set *s)
-{
-  static const ej_field_decl fields[] = {
-      {.name = "rho", .kind = EJ_SCALAR, .flags = EJ_FIELD_OUTPUT, .unit = "kg/m^3", .rate = "rho_dot"},
-      {.name = "e", .kind = EJ_SCALAR, .flags = EJ_FIELD_OUTPUT, .unit = "J/kg", .rate = "e_dot",
-       .energy = EJ_ENERGY_INTERNAL},
-      {.name = "p", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_OUTPUT, .unit = "Pa"},
-      {.name = "c", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "m/s"},
-      {.name = "h", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_OUTPUT, .unit = "m"},
-      {.name = "w_visc", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "J/kg", .rate = "w_visc_dot",
-       .energy = EJ_ENERGY_VISCOUS},
-      {.name = "mu_max", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "m/s"},
-  };
-  for (size_t k = 0; k < sizeof fields / sizeof fields[0]; ++k)
-    ck_assert_int_eq(ej_set_add_field(s, &fields[k], NULL), EJ_OK);
-}
-
 /* Registry, configs with defaults, an empty set of n particles. */
 static void fix_open(sph_fix *f, int dim, ej_idx n)
 {
@@ -96,7 +77,14 @@ static void fix_open(sph_fix *f, int dim, ej_idx n)
   f->eos = (struct ej_eos){.ops = f->eops, .state = f->estate};
   f->model = (struct ej_model){.name = "gas", .rho0 = 1.0, .eos = &f->eos, .mat = NULL};
   ck_assert_int_eq(ej_set_create("gas", 0, dim, &f->set), EJ_OK);
-  add_sph_fields(f->set);
+  /* The method's own declaration allocates its fields and the neighbour configuration. */
+  ck_assert_int_eq(ej_decl_probe(f->mops, f->mcfg, f->set), EJ_OK);
+  ck_assert_int_eq(f->set->nbr_config, EJ_NBR_CURRENT);
+  const char *want[] = {"rho", "rho_dot", "e", "e_dot", "p", "c", "p_rho2", "h", "w_visc", "w_visc_dot", "mu_max"};
+  for (size_t k = 0; k < sizeof want / sizeof want[0]; ++k)
+    ck_assert_msg(ej_set_find_field(f->set, want[k]) >= 0, "field '%s' not declared", want[k]);
+  ck_assert_int_eq(f->set->fields[ej_set_find_field(f->set, "e")].energy, EJ_ENERGY_INTERNAL);
+  ck_assert_int_eq(f->set->fields[ej_set_find_field(f->set, "w_visc")].energy, EJ_ENERGY_VISCOUS);
   ck_assert_int_eq(ej_set_reserve(f->set, n), EJ_OK);
   f->set->n = n;
   f->set->n_ghost = 0;
@@ -221,9 +209,10 @@ START_TEST(test_params_and_ops)
 {
   sph_fix f;
   fix_open(&f, 3, 1);
-  const char *names[] = {"kernel", "h_factor", "variable_h", "alpha", "beta", "eta", "rho_min"};
-  for (int k = 0; k < 7; ++k) ck_assert_str_eq(f.mops->params[k].name, names[k]);
-  ck_assert_ptr_null(f.mops->params[7].name);
+  const char *names[] = {"kernel", "continuity", "h_factor", "variable_h", "alpha", "beta", "eta", "rho_min"};
+  for (int k = 0; k < 8; ++k) ck_assert_str_eq(f.mops->params[k].name, names[k]);
+  ck_assert_ptr_null(f.mops->params[8].name);
+  ck_assert(*(int *)((char *)f.mcfg + find_param(f.mops->params, "continuity")->offset) == 0); /* volume */
   const ej_param *hf = find_param(f.mops->params, "h_factor");
   ck_assert(*(ej_real *)((char *)f.mcfg + hf->offset) == 1.3);
   ck_assert(hf->min == 0.5 && hf->max == 3.0);
@@ -412,6 +401,14 @@ START_TEST(test_fixed_h)
   ck_assert_int_eq(f.mops->create(f.mcfg, f.set, &f.model, &f.mstate), EJ_OK);
   ck_assert_int_eq(f.mops->support(f.mstate, f.set, (ej_range){0, 1}, &R), EJ_OK);
   ck_assert_double_eq_tol(R, 0.4, 1e-14);
+  /* radius[k] belongs to particle r.begin + k (the core passes its array at r.begin). */
+  ej_real R3[4] = {-1, -1, -1, -1};
+  rho[11] = 1.0 / 8.0; /* h doubles: 2 (0.008 / 0.125)^(1/3) = 0.8 */
+  ck_assert_int_eq(f.mops->support(f.mstate, f.set, (ej_range){10, 13}, R3), EJ_OK);
+  ck_assert_double_eq_tol(R3[0], 0.8, 1e-14);
+  ck_assert_double_eq_tol(R3[1], 1.6, 1e-14);
+  ck_assert_double_eq_tol(R3[2], 0.8, 1e-14);
+  ck_assert(R3[3] == -1);
   fix_close(&f);
 }
 END_TEST

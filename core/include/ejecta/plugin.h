@@ -231,7 +231,7 @@ typedef enum ej_nbr_config {
 } ej_nbr_config;
 
 /* A CSR list: row i (an owned particle of the first set) lists indices j into the second set
- * (owned or ghost). Rows are in ascending j-cell order, deterministic. Current lists contain
+ * (owned or ghost). Each row is sorted ascending by j, deterministic. Current lists contain
  * every pair with |x_j - x_i| < max(R_i, R_j) (+ the skin), never i itself. */
 typedef struct ej_nbr {
   ej_idx n_rows;
@@ -328,7 +328,7 @@ typedef struct ej_method_ops {
   /* After particles exist and initial fields are set (density, energy, velocity):
    * initialise method fields (smoothing length, shape tensors...). Serial. */
   ej_err (*setup)(void *state, ej_set *set);
-  /* Search radius R_i of each owned particle in range (current configuration). */
+  /* Search radius of the owned particles in r: radius[k] belongs to particle r.begin + k. */
   ej_err (*support)(void *state, const ej_set *set, ej_range r, ej_real *radius);
   /* Number of passes per step; the core refreshes ghosts between passes. */
   int n_passes;

@@ -19,6 +19,7 @@
 
 typedef struct sph_config {
   int kernel;
+  int continuity;
   ej_real h_factor;
   bool variable_h;
   ej_real alpha, beta, eta;
@@ -26,10 +27,16 @@ typedef struct sph_config {
 } sph_config;
 
 static const char *const sph_kernel_names[] = {"cubic_spline", "wendland_c2", NULL};
+enum { SPH_CONT_VOLUME = 0, SPH_CONT_MASS = 1 };
+static const char *const sph_continuity_names[] = {"volume", "mass", NULL};
 
 static const ej_param sph_params[] = {
     EJ_PARAM_ENUM(sph_config, kernel, sph_kernel_names, "cubic_spline",
                   "Smoothing kernel, support radius 2h: M4 cubic spline or Wendland C2."),
+    EJ_PARAM_ENUM(sph_config, continuity, sph_continuity_names, "volume",
+                  "Discrete continuity equation: volume, drho_i/dt = rho_i sum_j (m_j/rho_j) v_ij.grad W "
+                  "(stays positive in expansion to vacuum); mass, drho_i/dt = sum_j m_j v_ij.grad W "
+                  "(000 Eq 22 as printed)."),
     EJ_PARAM_REAL(sph_config, h_factor, "1", 1.3, 0.5, 3.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Smoothing length in particle spacings: h = h_factor (m/rho)^(1/dim)."),
     EJ_PARAM_BOOL(sph_config, variable_h, 1,
@@ -68,6 +75,10 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
        .doc = "Pressure from the equation of state (compression positive)."},
       {.name = "c", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "m/s",
        .doc = "Sound speed from the equation of state."},
+      {.name = "w_cont", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "1",
+       .doc = "Neighbour weight of the continuity sum: m/rho (volume form) or m (mass form)."},
+      {.name = "p_rho2", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "m^5/(kg s^2)",
+       .doc = "p / rho^2, computed once per particle so that the pair loop does not divide."},
       {.name = "h", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_OUTPUT, .unit = "m",
        .doc = "Smoothing length (kernel support is 2h)."},
       {.name = "w_visc", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "J/kg",
@@ -148,11 +159,13 @@ static ej_err sph_particle_pass(const sph_state *s, ej_set *set, ej_range r)
   ej_real *restrict h = ej_set_field(set, "h");
   ej_real *restrict p = ej_set_field(set, "p");
   ej_real *restrict c = ej_set_field(set, "c");
+  ej_real *restrict p_rho2 = ej_set_field(set, "p_rho2");
+  ej_real *restrict w_cont = ej_set_field(set, "w_cont");
   const ej_real *restrict e = ej_set_field(set, "e");
   const ej_real *restrict m = ej_set_field(set, "m");
   const ej_real *restrict vol0 = ej_set_field(set, "vol0");
-  EJ_ENSURE(rho && h && p && c && e && m && vol0, EJ_ERR_INTERNAL, "set '%s': sph fields missing",
-            s->set_name);
+  EJ_ENSURE(rho && h && p && c && p_rho2 && w_cont && e && m && vol0, EJ_ERR_INTERNAL,
+            "set '%s': sph fields missing", s->set_name);
   const sph_config *cfg = &s->cfg;
   const int dim = s->dim;
   for (ej_idx i = r.begin; i < r.end; ++i) {
@@ -164,6 +177,10 @@ static ej_err sph_particle_pass(const sph_state *s, ej_set *set, ej_range r)
   }
   if (r.end > r.begin)
     EJ_TRY(ej_eos_evaluate(s->eos, r.end - r.begin, rho + r.begin, e + r.begin, p + r.begin, c + r.begin));
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    p_rho2[i] = p[i] / (rho[i] * rho[i]);
+    w_cont[i] = cfg->continuity == SPH_CONT_VOLUME ? m[i] / rho[i] : m[i];
+  }
   return EJ_OK;
 }
 
@@ -190,7 +207,8 @@ static ej_err sph_support(void *state, const ej_set *set, ej_range r, ej_real *r
   const ej_real *restrict m = ej_set_field(set, "m");
   const ej_real *restrict vol0 = ej_set_field(set, "vol0");
   EJ_ENSURE(rho && m && vol0, EJ_ERR_INTERNAL, "set '%s': sph fields missing", s->set_name);
-  /* Same h as pass 0 (floored density), so the list holds every pair with r < 2 hbar. */
+  /* Same h as pass 0 (floored density), so the list holds every pair with r < 2 hbar.
+   * radius[k] belongs to particle r.begin + k (plugin.h). */
   for (ej_idx i = r.begin; i < r.end; ++i) {
     const ej_real rf = fmax(rho[i], sph_rho_floor(&s->cfg, m[i], vol0[i]));
     radius[i - r.begin] = 2.0 * sph_h(&s->cfg, s->dim, m[i], vol0[i], rf);
@@ -208,7 +226,8 @@ static ej_err sph_support(void *state, const ej_set *set, ej_range r, ej_real *r
 #endif
 
 typedef struct sph_pair_args {
-  const ej_real *x, *v, *m, *rho, *p, *c, *h;
+  const ej_real *x, *v, *m, *rho, *p_rho2, *c, *h, *w_cont;
+  bool volume_form;
   ej_real *a, *rho_dot, *e_dot, *w_dot, *mu_max;
   const ej_off *off;
   const ej_idx *idx;
@@ -223,6 +242,11 @@ typedef struct sph_pair_args {
  * section 3) and momentum is conserved to round-off; the energy equation is the matching
  * one, so sum_i m_i (v_i.a_i + de_i/dt) = 0 exactly for the semi-discrete system.
  *   drho_i/dt = sum_j m_j (v_i - v_j).grad_i W_ij                                  (000 Eq 22)
+ *     or, by default, rho_i sum_j (m_j/rho_j) (v_i - v_j).grad_i W_ij: the same continuum
+ *     equation (d ln rho/dt = -div v), but the rate is proportional to rho_i, so a particle
+ *     in a gas expanding into vacuum (Sedov core, detonation front) never reaches rho <= 0,
+ *     which with Eq 22 sends h = h_factor (m/rho)^(1/d) to infinity. Momentum and energy
+ *     equations do not involve it, so conservation is unchanged.
  *   dv_i/dt  = -sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2 + Pi_ij) grad_i W_ij             (000 Eq 23)
  *   de_i/dt  = 1/2 sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2 + Pi_ij) (v_i - v_j).grad_i W_ij
  *                                                         (000 Eq 24, sign erratum: v_i - v_j)
@@ -235,7 +259,9 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
                                                 ej_range rg)
 {
   const ej_real *restrict x = A->x, *restrict v = A->v, *restrict m = A->m, *restrict rho = A->rho;
-  const ej_real *restrict p = A->p, *restrict c = A->c, *restrict h = A->h;
+  const ej_real *restrict p_rho2 = A->p_rho2, *restrict c = A->c, *restrict h = A->h;
+  const ej_real *restrict w_cont = A->w_cont;
+  const bool volume_form = A->volume_form;
   ej_real *restrict a = A->a, *restrict rho_dot = A->rho_dot, *restrict e_dot = A->e_dot;
   ej_real *restrict w_dot = A->w_dot, *restrict mu_max = A->mu_max;
   const ej_off *restrict off = A->off;
@@ -247,7 +273,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
     const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
     const ej_real vi0 = v[3 * i], vi1 = dim > 1 ? v[3 * i + 1] : 0.0, vi2 = dim > 2 ? v[3 * i + 2] : 0.0;
     const ej_real rhoi = rho[i], hi = h[i], ci = c[i];
-    const ej_real pri = p[i] / (rhoi * rhoi);
+    const ej_real pri = p_rho2[i];
     ej_real ax = 0.0, ay = 0.0, az = 0.0, drho = 0.0, de = 0.0, dw = 0.0, mumax = 0.0;
     for (ej_off k = off[i]; k < off[i + 1]; ++k) {
       const ej_idx j = idx[k];
@@ -258,18 +284,16 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
       const ej_real hbar = 0.5 * (hi + h[j]);
       /* The list carries a Verlet skin: pairs beyond 2 hbar contribute nothing. */
       if (r2 >= 4.0 * hbar * hbar) continue;
-      /* A coincident pair has f'(0) = 0 for both kernels: clamping r keeps 0 * finite. */
-      const ej_real r = fmax(sqrt(r2), 1e-12 * hbar);
+      /* A coincident pair has f'(0) = 0 for both kernels: clamping r keeps 0 * finite.
+       * (Ternaries, not fmin/fmax: those are libm calls unless -ffinite-math-only.) */
+      const ej_real r_raw = sqrt(r2), r_min = 1e-12 * hbar;
+      const ej_real r = r_raw > r_min ? r_raw : r_min;
       const ej_real rhoj = rho[j];
       const ej_real d1 = r2 + eta2 * hbar * hbar, rho_sum = rhoi + rhoj;
-      /* 1/hbar, 1/r, 1/d1 and 1/rho_sum from one division: the divider is the bottleneck of
-       * the pair loop. The factors stay within a few decades of 1 in SI for any physical
-       * particle size, so the product cannot overflow. */
-      const ej_real hr = hbar * r, dd = d1 * rho_sum;
-      const ej_real inv = 1.0 / (hr * dd);
-      const ej_real inv_hr = dd * inv, inv_dd = hr * inv;
-      const ej_real inv_h = r * inv_hr, inv_r = hbar * inv_hr;
-      const ej_real inv_d1 = rho_sum * inv_dd, inv_rho_sum = d1 * inv_dd;
+      /* Four independent divisions: measured faster than one shared division, whose
+       * multiply chain lengthens the critical path of the pair. */
+      const ej_real inv_h = 1.0 / hbar, inv_r = 1.0 / r;
+      const ej_real inv_d1 = 1.0 / d1, inv_rho_sum = 1.0 / rho_sum;
       /* grad_i W_ij = gw * r_ij, gw = sigma_d / hbar^(d+1) f'(q) / r. */
       const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) * inv_r;
       const ej_real vx = vi0 - v[3 * j];
@@ -278,23 +302,23 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
       const ej_real vr = vx * rx + vy * ry + vz * rz; /* = v_ij . x_ij */
       /* Receding pairs (v_ij.x_ij >= 0) get mu = 0, hence Pi = 0: a select, not a branch,
        * because approach and recession alternate unpredictably along a row. */
-      const ej_real mu = hbar * fmin(vr, 0.0) * inv_d1;
+      const ej_real mu = hbar * (vr < 0.0 ? vr : 0.0) * inv_d1;
       const ej_real pi_ij = (-alpha * 0.5 * (ci + c[j]) * mu + beta * mu * mu) * 2.0 * inv_rho_sum;
-      mumax = fmax(mumax, -mu);
+      mumax = -mu > mumax ? -mu : mumax;
       const ej_real mj = m[j];
-      const ej_real f = mj * (pri + p[j] / (rhoj * rhoj) + pi_ij) * gw;
+      const ej_real f = mj * (pri + p_rho2[j] + pi_ij) * gw;
       const ej_real vgw = vr * gw; /* (v_i - v_j) . grad_i W_ij */
       ax -= f * rx;
       if (dim > 1) ay -= f * ry;
       if (dim > 2) az -= f * rz;
-      drho += mj * vgw;
+      drho += w_cont[j] * vgw;
       de += f * vr;
       dw += mj * pi_ij * vgw;
     }
     a[3 * i] += ax;
     if (dim > 1) a[3 * i + 1] += ay;
     if (dim > 2) a[3 * i + 2] += az;
-    rho_dot[i] += drho;
+    rho_dot[i] += volume_form ? rhoi * drho : drho;
     e_dot[i] += 0.5 * de;
     w_dot[i] += 0.5 * dw;
     mu_max[i] = mumax;
@@ -307,12 +331,13 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
             s->set_name, nbr ? (int)nbr->n_rows : -1, (int)r.end);
   sph_pair_args A = {
       .x = ej_set_field(set, "x"), .v = ej_set_field(set, "v"), .m = ej_set_field(set, "m"),
-      .rho = ej_set_field(set, "rho"), .p = ej_set_field(set, "p"), .c = ej_set_field(set, "c"),
-      .h = ej_set_field(set, "h"), .a = ej_set_field(set, "a"), .rho_dot = ej_set_field(set, "rho_dot"),
+      .rho = ej_set_field(set, "rho"), .p_rho2 = ej_set_field(set, "p_rho2"), .c = ej_set_field(set, "c"),
+      .h = ej_set_field(set, "h"), .w_cont = ej_set_field(set, "w_cont"),
+      .volume_form = s->cfg.continuity == SPH_CONT_VOLUME, .a = ej_set_field(set, "a"), .rho_dot = ej_set_field(set, "rho_dot"),
       .e_dot = ej_set_field(set, "e_dot"), .w_dot = ej_set_field(set, "w_visc_dot"),
       .mu_max = ej_set_field(set, "mu_max"), .off = nbr->off, .idx = nbr->idx,
       .alpha = s->cfg.alpha, .beta = s->cfg.beta, .eta2 = s->cfg.eta * s->cfg.eta};
-  EJ_ENSURE(A.x && A.v && A.m && A.rho && A.p && A.c && A.h && A.a && A.rho_dot && A.e_dot && A.w_dot &&
+  EJ_ENSURE(A.x && A.v && A.m && A.rho && A.p_rho2 && A.c && A.h && A.w_cont && A.a && A.rho_dot && A.e_dot && A.w_dot &&
                 A.mu_max,
             EJ_ERR_INTERNAL, "set '%s': sph fields missing", s->set_name);
   /* One instantiation per (kernel, dim): no per-pair dispatch. */

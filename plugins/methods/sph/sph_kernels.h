@@ -50,13 +50,14 @@ static inline ej_real sph_kernel_f(int kernel, int dim, ej_real q)
  * smooth through r = 0. */
 static inline ej_real sph_kernel_df(int kernel, int dim, ej_real q)
 {
-  if (q >= 2.0) return 0.0;
+  /* Branch-free (t clamped at 0 beyond the support, both cubic pieces evaluated): in the
+   * pair loop q jumps around unpredictably along a neighbour row. */
   if (kernel == SPH_KERNEL_CUBIC_SPLINE) {
-    if (q < 1.0) return q * (-3.0 + 2.25 * q);
-    const ej_real t = 2.0 - q;
-    return -0.75 * t * t;
+    const ej_real t0 = 2.0 - q, t = t0 > 0.0 ? t0 : 0.0;
+    const ej_real inner = q * (-3.0 + 2.25 * q), outer = -0.75 * t * t;
+    return q < 1.0 ? inner : outer;
   }
-  const ej_real t = 1.0 - 0.5 * q;
+  const ej_real t0 = 1.0 - 0.5 * q, t = t0 > 0.0 ? t0 : 0.0;
   if (dim == 1) return -3.0 * q * t * t;
   return -5.0 * q * t * t * t;
 }

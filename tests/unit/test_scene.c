@@ -1,0 +1,423 @@
+/* Scene loading: a full valid scene parses into the expected values, and each class of bad
+ * input gives one precise message at the right line:col. */
+#ifndef _DEFAULT_SOURCE
+#define _DEFAULT_SOURCE /* mkdtemp */
+#endif
+#include <check.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "scene_impl.h"
+
+const ej_plugin_info *ej_plugin_sph_info(void);
+const ej_plugin_info *ej_plugin_ideal_gas_info(void);
+
+static char tmpdir[256];
+static ej_registry *reg;
+
+static void setup(void)
+{
+  snprintf(tmpdir, sizeof tmpdir, "/tmp/ej_test_scene_XXXXXX");
+  ck_assert_ptr_nonnull(mkdtemp(tmpdir));
+  ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_sph_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_ideal_gas_info()), EJ_OK);
+  ej_error_clear();
+}
+
+static void teardown(void)
+{
+  ej_registry_destroy(reg);
+  ej_error_clear();
+  static const char *const files[] = {"scene.yaml", "particles.csv"};
+  char path[600];
+  for (int i = 0; i < 2; ++i) {
+    snprintf(path, sizeof path, "%s/%s", tmpdir, files[i]);
+    unlink(path);
+  }
+  rmdir(tmpdir);
+}
+
+static const char *write_file(const char *name, const char *text)
+{
+  static char path[512];
+  snprintf(path, sizeof path, "%s/%s", tmpdir, name);
+  FILE *fp = fopen(path, "wb");
+  ck_assert_ptr_nonnull(fp);
+  fputs(text, fp);
+  fclose(fp);
+  return path;
+}
+
+static ej_err load(const char *text, ej_scene **sc)
+{
+  ej_error_clear();
+  *sc = NULL;
+  return ej_scene_load(write_file("scene.yaml", text), reg, sc);
+}
+
+static ej_scene *load_ok(const char *text)
+{
+  ej_scene *sc;
+  ej_err rc = load(text, &sc);
+  if (rc != EJ_OK) ej_error_print(stderr, "test_scene", true);
+  ck_assert_int_eq(rc, EJ_OK);
+  return sc;
+}
+
+/* Loading fails with an input error whose cause contains text at line:col. */
+static void load_bad(const char *scene, const char *text, int line, int col)
+{
+  ej_scene *sc;
+  ck_assert_int_eq(load(scene, &sc), EJ_ERR_INPUT);
+  ck_assert_ptr_null(sc);
+  const ej_error_frame *c = ej_error_cause();
+  ck_assert_ptr_nonnull(c);
+  if (!strstr(c->msg, text)) ck_abort_msg("message '%s' lacks '%s'", c->msg, text);
+  ck_assert_int_eq(c->code, EJ_ERR_INPUT);
+  ck_assert_ptr_nonnull(c->where.file);
+  ck_assert(strstr(c->where.file, "scene.yaml") != NULL);
+  if (c->where.line != line || c->where.col != col)
+    ck_abort_msg("'%s' at %d:%d, expected %d:%d", c->msg, c->where.line, c->where.col, line, col);
+  ej_error_clear();
+}
+
+#define HEAD "ejecta: 1\ntime: {end: 1 ms}\nmaterials:\n  air: {rho0: 1.2, eos: {model: ideal_gas, gamma: 1.4}}\n"
+
+/* ------------------------------------------------------------------ valid scenes */
+
+START_TEST(test_valid_full)
+{
+  ej_scene *sc = load_ok("ejecta: 1\n"
+                         "dimension: 3\n"
+                         "time: {end: 0.2 ms, cfl: 0.25, dt_max: 1 us, max_steps: 100}\n"
+                         "output: {every: 10 us, fields: [rho, p, v]}\n"
+                         "neighbours: {skin: 0.2}\n"
+                         "gravity: [0, 0, -9.81]\n"
+                         "materials:\n"
+                         "  air: {rho0: 1.2 kg/m^3, eos: {model: ideal_gas, gamma: 1.4}}\n"
+                         "  hot: {rho0: 1, eos: {model: ideal_gas}}\n"
+                         "sets:\n"
+                         "  gas:\n"
+                         "    method: sph\n"
+                         "    material: air\n"
+                         "    shape: {box: {min: [0, 0, 0], max: [1, 0.5, 0.5]}, minus: [core]}\n"
+                         "    spacing: 50 mm\n"
+                         "    lattice: hcp\n"
+                         "    jitter: 0.1\n"
+                         "    seed: 42\n"
+                         "    velocity: [1 m/s, 0, 0]\n"
+                         "    p: 1e5\n"
+                         "    h_factor: 1.5\n"
+                         "    refine: [{region: {sphere: {center: [0.5, 0.25, 0.25], radius: 0.1}}, spacing: 25 mm}]\n"
+                         "    initial:\n"
+                         "      - {region: {box: {min: [0, 0, 0], max: [0.5, 0.5, 0.5]}}, p: 1e6, velocity: [0, 0, 0]}\n"
+                         "      - {energy_total: 1 J}\n"
+                         "  core:\n"
+                         "    method: sph\n"
+                         "    material: hot\n"
+                         "    shape: {sphere: {center: [2, 0.25, 0.25], radius: 0.1}}\n"
+                         "    spacing: 0.02\n"
+                         "boundaries:\n"
+                         "  - {set: gas, region: {box: {min: [0, 0, 0], max: [0.1, 0.5, 0.5]}}, fix: [x]}\n"
+                         "  - {velocity: [0, 0, 1], components: [z]}\n"
+                         "  - {symmetry: {point: [0, 0, 0], normal: [0, 2, 0]}}\n"
+                         "  - {periodic: {axis: z, min: 0, max: 0.5}}\n");
+  ck_assert_int_eq(sc->dimension, 3);
+  ck_assert(fabs(sc->t_end - 2e-4) < 1e-18 && sc->cfl == 0.25 && fabs(sc->dt_max - 1e-6) < 1e-20);
+  ck_assert(sc->dt_fixed == 0 && sc->max_steps == 100 && sc->skin == 0.2);
+  ck_assert(sc->gravity[2] == -9.81 && sc->gravity[0] == 0);
+  ck_assert_str_eq(sc->output_file, "out/scene.h5");
+  ck_assert(fabs(sc->output_every - 1e-5) < 1e-18);
+  ck_assert_int_eq(sc->n_output_fields, 3);
+  ck_assert_str_eq(sc->output_fields[2], "v");
+  ck_assert_int_eq(sc->output_field_locs[2].line, 4);
+  ck_assert_int_eq(sc->n_materials, 2);
+  ck_assert_str_eq(sc->materials[0].name, "air");
+  ck_assert(sc->materials[0].rho0 == 1.2);
+  ck_assert_ptr_nonnull(sc->materials[0].eos_ops);
+  ck_assert_str_eq(sc->materials[0].eos_ops->name, "ideal_gas");
+  ck_assert_ptr_null(sc->materials[0].mat_ops);
+  ck_assert_int_eq(sc->n_sets, 2);
+  const ej_scene_set *g = &sc->sets[0];
+  ck_assert_str_eq(g->name, "gas");
+  ck_assert_int_eq(g->loc.line, 11);
+  ck_assert_int_eq(g->material, 0);
+  ck_assert_int_eq(sc->sets[1].material, 1);
+  ck_assert_str_eq(g->method_ops->name, "sph");
+  ck_assert(fabs(g->spacing - 0.05) < 1e-15);
+  ck_assert_int_eq(g->lattice, EJ_LATTICE_HCP);
+  ck_assert(g->jitter == 0.1 && g->seed == 42);
+  ck_assert_int_eq(g->n_refine, 1);
+  ck_assert(fabs(g->refine[0].spacing - 0.025) < 1e-15);
+  ck_assert_int_eq(g->n_init, 3);
+  ck_assert(g->init[0].has_v && g->init[0].v[0] == 1 && g->init[0].has_p && g->init[0].p == 1e5);
+  ck_assert(!g->init[0].has_e && !g->init[0].has_rho && g->init[0].region == NULL);
+  ck_assert(g->init[1].has_p && g->init[1].p == 1e6 && g->init[1].has_v && g->init[1].region);
+  ck_assert(g->init[2].has_energy_total && g->init[2].energy_total == 1 && !g->init[2].region);
+  /* the shape subtracts set 'core', defined further down */
+  const ej_real in_core[3] = {2, 0.25, 0.25}, in_box[3] = {0.5, 0.25, 0.25};
+  ck_assert(ej_shape_contains(g->shape, in_box));
+  ck_assert(!ej_shape_contains(g->shape, in_core) && ej_shape_contains(sc->sets[1].shape, in_core));
+  ck_assert_int_eq(sc->n_bcs, 4);
+  ck_assert_int_eq(sc->bcs[0].kind, EJ_BC_FIX);
+  ck_assert(sc->bcs[0].set == 0 && sc->bcs[0].comp[0] && !sc->bcs[0].comp[1] && sc->bcs[0].region);
+  ck_assert_int_eq(sc->bcs[1].kind, EJ_BC_VELOCITY);
+  ck_assert(sc->bcs[1].set == -1 && sc->bcs[1].comp[2] && !sc->bcs[1].comp[0] && sc->bcs[1].velocity[2] == 1);
+  ck_assert_int_eq(sc->bcs[2].kind, EJ_BC_SYMMETRY);
+  ck_assert(sc->bcs[2].normal[1] == 1 && sc->bcs[2].normal[0] == 0);
+  ck_assert_int_eq(sc->bcs[3].kind, EJ_BC_PERIODIC);
+  ck_assert(sc->bcs[3].axis == 2 && sc->bcs[3].lo == 0 && sc->bcs[3].hi == 0.5);
+  ck_assert_int_eq(sc->bcs[3].loc.line, 35);
+
+  ej_points pts;
+  ck_assert_int_eq(ej_scene_set_points(sc, 0, &pts), EJ_OK);
+  ck_assert(pts.n > 100);
+  bool fine = false;
+  for (ej_idx i = 0; i < pts.n; ++i) fine = fine || pts.spacing[i] == 0.025;
+  ck_assert(fine);
+  ej_points_free(&pts);
+  ck_assert_int_eq(ej_scene_set_points(sc, 1, &pts), EJ_OK);
+  ck_assert(pts.n > 100);
+  ej_points_free(&pts);
+  ej_scene_destroy(sc);
+  ej_scene_destroy(NULL);
+}
+END_TEST
+
+START_TEST(test_valid_minimal_2d_csv)
+{
+  write_file("particles.csv", "x,y\n0,0\n0.1,0\n");
+  ej_scene *sc = load_ok(HEAD "dimension: 2\n"
+                              "output: {file: results/run.h5}\n"
+                              "sets:\n"
+                              "  gas: {method: sph, material: air, file: particles.csv, spacing: 0.1,\n"
+                              "        velocity: [1, 2]}\n");
+  ck_assert_int_eq(sc->dimension, 2);
+  ck_assert(sc->cfl == 0.3 && sc->skin == 0.1);
+  ck_assert_str_eq(sc->output_file, "results/run.h5");
+  const ej_scene_set *g = &sc->sets[0];
+  ck_assert_ptr_null(g->shape);
+  ck_assert_ptr_nonnull(g->file);
+  ck_assert(strstr(g->file, tmpdir) == g->file); /* relative to the scene's directory */
+  ck_assert(g->init[0].v[0] == 1 && g->init[0].v[1] == 2 && g->init[0].v[2] == 0);
+  ej_points pts;
+  ck_assert_int_eq(ej_scene_set_points(sc, 0, &pts), EJ_OK);
+  ck_assert_int_eq(pts.n, 2);
+  ck_assert(fabs(pts.vol[0] - 0.01) < 1e-15);
+  ej_points_free(&pts);
+  ej_scene_destroy(sc);
+}
+END_TEST
+
+/* ------------------------------------------------------------------ one test per bad-input class */
+
+#define SET_OK "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 0.1}\n"
+
+START_TEST(test_bad_yaml)
+{
+  ej_scene *sc;
+  ck_assert_int_eq(load("ejecta: 1\ntime: {end: 1\nsets: [\n", &sc), EJ_ERR_INPUT);
+  const ej_error_frame *c = ej_error_cause();
+  ck_assert(strstr(c->msg, "malformed YAML") != NULL);
+  ck_assert(c->where.line >= 2);
+}
+END_TEST
+
+START_TEST(test_bad_unknown_key)
+{
+  load_bad(HEAD "tme: {end: 1}\n" SET_OK, "unknown key 'tme' in scene; did you mean 'time'?", 5, 1);
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}},"
+                " spacing: 0.1, jiter: 0.1}\n",
+           "did you mean 'jitter'?", 6, 99);
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {bx: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 0.1}\n",
+           "unknown shape 'bx'; did you mean 'box'?", 6, 45);
+}
+END_TEST
+
+START_TEST(test_bad_type)
+{
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: [1, 2]}\n",
+           "'spacing' in set 'gas' must be a number (m), got a list", 6, 94);
+  load_bad("ejecta: 1\ntime: 5\n" SET_OK, "time", 2, 7);
+  load_bad(HEAD "sets: [gas]\n", "sets must be a map", 5, 7);
+}
+END_TEST
+
+START_TEST(test_bad_range)
+{
+  load_bad("ejecta: 1\ntime: {end: 1 ms, cfl: 1.5}\n" SET_OK, "'cfl' = 1.5 is out of range", 2, 24);
+  load_bad("ejecta: 2\ntime: {end: 1 ms}\n" SET_OK, "'ejecta' = 2 is out of range", 1, 9);
+  load_bad(HEAD "dimension: 2\nsets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0], max: [1, 1]}},"
+                " spacing: 0.1}\nboundaries:\n  - {periodic: {axis: z, min: 0, max: 1}}\n",
+           "periodic axis 'z' is not used in a 2D scene", 9, 23);
+}
+END_TEST
+
+START_TEST(test_bad_missing)
+{
+  load_bad("ejecta: 1\ntime: {end: 1}\nmaterials:\n  air: {eos: {model: ideal_gas}}\n" SET_OK,
+           "material 'air' is missing required key 'rho0'", 4, 8);
+  load_bad("ejecta: 1\n" SET_OK, "scene is missing required key 'time'", 1, 1);
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}}\n",
+           "set 'gas' needs 'spacing'", 6, 3);
+  load_bad(HEAD "sets:\n  gas: {material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 1}\n",
+           "set 'gas' needs 'method'", 6, 3);
+}
+END_TEST
+
+START_TEST(test_bad_plugin)
+{
+  load_bad(HEAD "sets:\n  gas: {method: sfh, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 0.1}\n",
+           "unknown method 'sfh'; did you mean 'sph'?", 6, 17);
+  load_bad("ejecta: 1\ntime: {end: 1}\nmaterials:\n  air: {rho0: 1, eos: {model: ideal_gaz}}\n" SET_OK,
+           "did you mean 'ideal_gas'?", 4, 31);
+}
+END_TEST
+
+START_TEST(test_bad_unit)
+{
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 4 GPa}\n",
+           "'spacing' in set 'gas' expects a length (m), got '4 GPa'", 6, 94);
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1 s]}}, spacing: 1}\n",
+           "expects a length (m), got '1 s'", 6, 79);
+}
+END_TEST
+
+START_TEST(test_bad_no_particles)
+{
+  ej_scene *sc = load_ok(HEAD "sets:\n  gas:\n    method: sph\n    material: air\n"
+                              "    shape: {box: {min: [0, 0, 0], max: [1, 1, 0.001]}}\n    spacing: 4 mm\n");
+  ej_points pts;
+  ej_error_clear();
+  ck_assert_int_eq(ej_scene_set_points(sc, 0, &pts), EJ_ERR_INPUT);
+  const ej_error_frame *c = ej_error_cause();
+  ck_assert_str_eq(c->msg, "set 'gas' has no particles: its shape holds no lattice point at spacing 0.004 m");
+  ck_assert_int_eq(c->where.line, 6);
+  ck_assert_int_eq(c->where.col, 3);
+  ej_scene_destroy(sc);
+  /* an unbounded shape is caught at load */
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {half_space: {point: [0, 0, 0], normal: [0, 0, 1]}},"
+                " spacing: 1}\n",
+           "shape is unbounded", 6, 44);
+}
+END_TEST
+
+START_TEST(test_bad_material_ref)
+{
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: ari, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 0.1}\n",
+           "set 'gas' uses undefined material 'ari'; did you mean 'air'?", 6, 32);
+}
+END_TEST
+
+START_TEST(test_bad_missing_file)
+{
+  ej_scene *sc = NULL;
+  char path[600];
+  snprintf(path, sizeof path, "%s/nonexistent.yaml", tmpdir);
+  ej_error_clear();
+  ck_assert_int_eq(ej_scene_load(path, reg, &sc), EJ_ERR_INPUT);
+  ck_assert_ptr_null(sc);
+  const ej_error_frame *c = ej_error_cause();
+  ck_assert(strstr(c->msg, "cannot open scene file") != NULL);
+  ck_assert(strstr(c->where.file, "nonexistent.yaml") != NULL);
+}
+END_TEST
+
+START_TEST(test_bad_misc)
+{
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 1,"
+                " p: 1, e: 2}\n",
+           "give either 'e' or 'p', not both", 6, 97);
+  load_bad(HEAD SET_OK "boundaries:\n  - {set: gsa, fix: [x]}\n", "undefined set 'gsa'; did you mean 'gas'?", 8, 11);
+  load_bad(HEAD SET_OK "boundaries:\n  - {set: gas, fix: [x], velocity: [1, 0, 0]}\n", "found both 'fix' and 'velocity'",
+           8, 26);
+  load_bad(HEAD "sets:\n  a: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}, minus: [b]},"
+                " spacing: 1}\n  b: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]},"
+                " minus: [a]}, spacing: 1}\n",
+           "set 'a' subtracts itself", 7, 90);
+  load_bad(HEAD "sets:\n  a: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}, minus: [charge]},"
+                " spacing: 1}\n",
+           "'minus' names undefined set 'charge'", 6, 90);
+  load_bad("ejecta: 1\ntime: {end: 1}\nmaterials:\n  air: {rho0: 1}\n" SET_OK,
+           "material 'air' needs an equation of state", 4, 3);
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 1,"
+                " file: p.csv}\n",
+           "takes either 'shape' or 'file'", 6, 97);
+  load_bad(HEAD "sets: {}\n", "'sets' is empty", 5, 7);
+  load_bad(HEAD "gravity: [0, -9.81]\n" SET_OK, "expected a list of 3 numbers", 5, 10);
+}
+END_TEST
+
+/* ------------------------------------------------------------------ schema */
+
+START_TEST(test_schema)
+{
+  ej_buf a = {0}, b = {0};
+  ck_assert_int_eq(ej_scene_schema(reg, &a), EJ_OK);
+  ck_assert_int_eq(ej_scene_schema(reg, &b), EJ_OK);
+  ck_assert_uint_eq(a.len, b.len);
+  ck_assert(memcmp(a.data, b.data, a.len) == 0);
+  ck_assert(strstr(a.data, "\"$schema\": \"https://json-schema.org/draft/2020-12/schema\""));
+  ck_assert(strstr(a.data, "\"const\": \"sph\""));
+  ck_assert(strstr(a.data, "\"const\": \"ideal_gas\""));
+  ck_assert(strstr(a.data, "\"h_factor\""));
+  ck_assert(strstr(a.data, "\"gamma\""));
+  /* balanced braces outside strings */
+  int depth = 0;
+  bool str = false;
+  for (size_t i = 0; i < a.len; ++i) {
+    char c = a.data[i];
+    if (str) {
+      if (c == '\\') ++i;
+      else if (c == '"') str = false;
+    } else if (c == '"') {
+      str = true;
+    } else if (c == '{' || c == '[') {
+      ++depth;
+    } else if (c == '}' || c == ']') {
+      --depth;
+      ck_assert(depth >= 0);
+    }
+  }
+  ck_assert_int_eq(depth, 0);
+  ej_buf_free(&a);
+  ej_buf_free(&b);
+}
+END_TEST
+
+/* The committed schema matches the one generated from every in-tree plugin, when the build
+ * has them all (the CLI test of 'ejecta schema' covers the full comparison). */
+
+int main(void)
+{
+  Suite *s = suite_create("scene");
+  TCase *tc = tcase_create("valid");
+  tcase_add_checked_fixture(tc, setup, teardown);
+  tcase_add_test(tc, test_valid_full);
+  tcase_add_test(tc, test_valid_minimal_2d_csv);
+  tcase_add_test(tc, test_schema);
+  suite_add_tcase(s, tc);
+  tc = tcase_create("bad_input");
+  tcase_add_checked_fixture(tc, setup, teardown);
+  tcase_add_test(tc, test_bad_yaml);
+  tcase_add_test(tc, test_bad_unknown_key);
+  tcase_add_test(tc, test_bad_type);
+  tcase_add_test(tc, test_bad_range);
+  tcase_add_test(tc, test_bad_missing);
+  tcase_add_test(tc, test_bad_plugin);
+  tcase_add_test(tc, test_bad_unit);
+  tcase_add_test(tc, test_bad_no_particles);
+  tcase_add_test(tc, test_bad_material_ref);
+  tcase_add_test(tc, test_bad_missing_file);
+  tcase_add_test(tc, test_bad_misc);
+  suite_add_tcase(s, tc);
+  SRunner *sr = srunner_create(s);
+  srunner_run_all(sr, CK_NORMAL);
+  int failed = srunner_ntests_failed(sr);
+  srunner_free(sr);
+  return failed ? EXIT_FAILURE : EXIT_SUCCESS;
+}

@@ -1,0 +1,77 @@
+/* Short Sod shock tube (validation/sod, 1D): L1 density error against the exact Riemann
+ * solution at t = 0.2 s, and its decrease under refinement. Runs through the library API.
+ *
+ * Tolerances come from validation/sod/check.py runs (Release, same scene): L1(rho) over
+ * |x| <= 0.4 was 0.00965 at dx = 0.005 and 0.00856 at dx = 0.0025; the bounds below are those
+ * values x 1.5. Refinement must cut the error by at least 25 % (first order expected: 50 %). */
+#include "validation_common.h"
+
+#define SOD_T_END 0.2
+#define SOD_TOL_L1_COARSE (1.5 * 0.00965) /* dx = 0.005  */
+#define SOD_TOL_L1_FINE (1.5 * 0.00856)   /* dx = 0.0025 */
+#define SOD_TOL_RATIO 0.75
+
+/* L1 = sum V_i |rho_i - rho_exact(x_i)| / sum V_i over |x_i| <= 0.4, V_i = m_i / rho_i. */
+static double sod_l1(double dx)
+{
+  char dir[64], scene[128], out[128];
+  vrun_dir(dir, sizeof dir, "sod");
+  snprintf(scene, sizeof scene, "%s/sod.yaml", dir);
+  snprintf(out, sizeof out, "%s/sod.h5", dir);
+  char *text = sod_scene_text(1, dx, SOD_T_END, 0, "sod.h5");
+  vrun_write(scene, text);
+  free(text);
+  ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = 1};
+  vrun r;
+  vrun_open(&r, scene, &opts, -1);
+  vrun_run(&r);
+  ck_assert_double_eq_tol(r.sim->t, SOD_T_END, 1e-12);
+  const ej_set *s = r.sim->sets[0];
+  const ej_real *x = ej_set_field(s, "x"), *rho = ej_set_field(s, "rho"), *m = ej_set_field(s, "m");
+  ck_assert_ptr_nonnull(x);
+  ck_assert_ptr_nonnull(rho);
+  ck_assert_ptr_nonnull(m);
+  const sod_state L = {1.0, 0.0, 1.0}, R = {0.125, 0.0, 0.1};
+  double ps, us;
+  toro_star(&L, &R, 1.4, &ps, &us);
+  ck_assert_double_eq_tol(ps, 0.30313, 1e-5); /* Toro table 4.3, test 1 */
+  ck_assert_double_eq_tol(us, 0.92745, 1e-5);
+  double num = 0, den = 0;
+  for (ej_idx i = 0; i < ej_set_count(s); ++i) {
+    if (fabs(x[3 * i]) > 0.4) continue;
+    const double V = m[i] / rho[i];
+    num += V * fabs(rho[i] - toro_rho(&L, &R, 1.4, ps, us, x[3 * i], r.sim->t));
+    den += V;
+  }
+  ck_assert(den > 0);
+  vrun_free(&r);
+  const char *names[] = {"sod.yaml", "sod.h5", "sod.xdmf"};
+  vrun_cleanup(dir, names, 3);
+  return num / den;
+}
+
+START_TEST(test_sod_l1_and_convergence)
+{
+  const double e1 = sod_l1(0.005), e2 = sod_l1(0.0025);
+  fprintf(stderr, "sod 1D: L1(rho) = %.5f (dx 0.005), %.5f (dx 0.0025), ratio %.3f, order %.2f\n", e1, e2,
+          e2 / e1, log(e1 / e2) / log(2.0));
+  ck_assert_msg(e1 < SOD_TOL_L1_COARSE, "L1(rho) = %g at dx 0.005, tolerance %g", e1, SOD_TOL_L1_COARSE);
+  ck_assert_msg(e2 < SOD_TOL_L1_FINE, "L1(rho) = %g at dx 0.0025, tolerance %g", e2, SOD_TOL_L1_FINE);
+  ck_assert_msg(e2 < SOD_TOL_RATIO * e1, "refinement cut L1(rho) only from %g to %g (need < %g x)", e1, e2,
+                SOD_TOL_RATIO);
+}
+END_TEST
+
+int main(void)
+{
+  Suite *s = suite_create("validation_sod");
+  TCase *tc = tcase_create("sod_1d");
+  tcase_set_timeout(tc, 120);
+  tcase_add_test(tc, test_sod_l1_and_convergence);
+  suite_add_tcase(s, tc);
+  SRunner *sr = srunner_create(s);
+  srunner_run_all(sr, CK_NORMAL);
+  int failed = srunner_ntests_failed(sr);
+  srunner_free(sr);
+  return failed ? EXIT_FAILURE : EXIT_SUCCESS;
+}

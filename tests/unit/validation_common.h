@@ -1,0 +1,201 @@
+/* Helpers shared by the validation and determinism suites: write a scene into a temporary
+ * directory, run it through the library API (registry with the statically linked sph and
+ * ideal_gas plugins, scene, sim), and the exact Riemann solution of the Sod problem.
+ * Header-only, included by test_validation_sod.c, test_validation_sedov.c, test_determinism.c. */
+#ifndef EJ_TEST_VALIDATION_COMMON_H
+#define EJ_TEST_VALIDATION_COMMON_H
+
+#include <check.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "core_impl.h"
+
+const ej_plugin_info *ej_plugin_sph_info(void);
+const ej_plugin_info *ej_plugin_ideal_gas_info(void);
+
+/* A loaded scene and its finished (or restarted) run. */
+typedef struct vrun {
+  ej_registry *reg;
+  ej_scene *scene;
+  ej_sim *sim;
+} vrun;
+
+static inline void vrun_dir(char *dir, size_t n, const char *tag)
+{
+  snprintf(dir, n, "/tmp/ej_%s_XXXXXX", tag);
+  ck_assert_ptr_nonnull(mkdtemp(dir));
+}
+
+static inline void vrun_write(const char *path, const char *text)
+{
+  FILE *f = fopen(path, "w");
+  ck_assert_ptr_nonnull(f);
+  ck_assert_int_eq(fputs(text, f) >= 0, 1);
+  fclose(f);
+}
+
+/* Loads scene_path; max_steps >= 0 overrides the scene's; then creates the sim with the given
+ * options. The caller runs it (ej_sim_run) and frees it with vrun_free. */
+static inline void vrun_open(vrun *r, const char *scene_path, const ej_run_opts *opts, int64_t max_steps)
+{
+  memset(r, 0, sizeof *r);
+  ck_assert_int_eq(ej_registry_create(&r->reg), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_sph_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_ideal_gas_info()), EJ_OK);
+  ej_err rc = ej_scene_load(scene_path, r->reg, &r->scene);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  if (max_steps >= 0) r->scene->max_steps = max_steps;
+  rc = ej_sim_create(r->scene, r->reg, opts, &r->sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+}
+
+static inline void vrun_run(vrun *r)
+{
+  ej_err rc = ej_sim_run(r->sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+}
+
+static inline void vrun_free(vrun *r)
+{
+  ej_sim_destroy(r->sim);
+  ej_scene_destroy(r->scene);
+  ej_registry_destroy(r->reg);
+  memset(r, 0, sizeof *r);
+}
+
+/* Removes the files a run left in dir (scene, outputs, XDMF sidecars), then dir. */
+static inline void vrun_cleanup(const char *dir, const char *const *names, int n)
+{
+  char p[1024];
+  for (int k = 0; k < n; ++k) {
+    snprintf(p, sizeof p, "%s/%s", dir, names[k]);
+    unlink(p);
+  }
+  rmdir(dir);
+}
+
+/* ------------------------------------------------------------------ Sod scene and solution */
+
+/* The Sod tube of validation/sod/check.py (sod_scene): one spacing on both sides, the jump
+ * smoothed by (1 + tanh(x / w)) / 2 with w = 1.95 dx (Monaghan & Gingold 1983), one `initial`
+ * strip per lattice column with |x| < 5 w. dim 1, or 3 with a periodic cross-section
+ * [0, width]^2. Returns a malloc'ed scene text. */
+static inline char *sod_scene_text(int dim, double dx, double t_end, double width, const char *out)
+{
+  ej_buf b = {0};
+  const char *lo3 = dim == 3 ? ", 0, 0" : "";
+  char hi3[64] = "";
+  if (dim == 3) snprintf(hi3, sizeof hi3, ", %.17g, %.17g", width, width);
+  ck_assert_int_eq(ej_buf_printf(&b,
+                                 "ejecta: 1\ndimension: %d\ntime: {end: %.17g, cfl: 0.3}\n"
+                                 "output: {file: %s, fields: [v, m, rho, p, e, h]}\n"
+                                 "materials:\n  gas: {rho0: 1, eos: {model: ideal_gas, gamma: 1.4}}\n"
+                                 "sets:\n  tube:\n    method: sph\n    material: gas\n"
+                                 "    shape: {box: {min: [-0.5%s], max: [0.5%s]}}\n    spacing: %.17g\n"
+                                 "    rho: 1\n    p: 1\n    initial:\n"
+                                 "      - {region: {box: {min: [0%s], max: [0.5%s]}}, rho: 0.125, p: 0.1}\n",
+                                 dim, t_end, out, lo3, hi3, dx, lo3, hi3),
+                   EJ_OK);
+  const double w = 1.5 * 1.3 * dx;
+  const int n = (int)lround(1.0 / dx);
+  for (int i = 0; i < n; ++i) {
+    const double x = -0.5 + (i + 0.5) * dx;
+    if (fabs(x) >= 5 * w) continue;
+    const double f = 0.5 * (1.0 + tanh(x / w));
+    ck_assert_int_eq(ej_buf_printf(&b,
+                                   "      - {region: {box: {min: [%.17g%s], max: [%.17g%s]}}, rho: %.17g, p: %.17g}\n",
+                                   x - dx / 2, lo3, x + dx / 2, hi3, 1.0 + (0.125 - 1.0) * f, 1.0 + (0.1 - 1.0) * f),
+                     EJ_OK);
+  }
+  const char *z3 = dim == 3 ? ", 0, 0" : "";
+  ck_assert_int_eq(ej_buf_printf(&b, "boundaries:\n  - symmetry: {point: [-0.5%s], normal: [1%s]}\n"
+                                     "  - symmetry: {point: [0.5%s], normal: [-1%s]}\n",
+                                 z3, z3, z3, z3),
+                   EJ_OK);
+  if (dim == 3)
+    ck_assert_int_eq(ej_buf_printf(&b, "  - periodic: {axis: y, min: 0, max: %.17g}\n"
+                                       "  - periodic: {axis: z, min: 0, max: %.17g}\n",
+                                   width, width),
+                     EJ_OK);
+  char *text = b.data; /* ej_buf memory comes from ej_malloc */
+  char *copy = strdup(text);
+  ej_buf_free(&b);
+  ck_assert_ptr_nonnull(copy);
+  return copy;
+}
+
+/* Exact Riemann solver for the ideal gas: Toro, "Riemann Solvers and Numerical Methods for Fluid
+ * Dynamics", 3rd ed., ch. 4 (Eqs 4.6-4.9, 4.44-4.46 Newton iteration, sampling section 4.5). */
+typedef struct sod_state {
+  double rho, u, p;
+} sod_state;
+
+static inline void toro_f(double p, const sod_state *k, double g, double *f, double *df)
+{
+  const double c = sqrt(g * k->p / k->rho);
+  if (p > k->p) {
+    const double A = 2 / ((g + 1) * k->rho), B = (g - 1) / (g + 1) * k->p, s = sqrt(A / (p + B));
+    *f = (p - k->p) * s;
+    *df = s * (1 - 0.5 * (p - k->p) / (p + B));
+  } else {
+    *f = 2 * c / (g - 1) * (pow(p / k->p, (g - 1) / (2 * g)) - 1);
+    *df = 1 / (k->rho * c) * pow(p / k->p, -(g + 1) / (2 * g));
+  }
+}
+
+static inline void toro_star(const sod_state *L, const sod_state *R, double g, double *ps, double *us)
+{
+  const double cl = sqrt(g * L->p / L->rho), cr = sqrt(g * R->p / R->rho), z = (g - 1) / (2 * g);
+  double p = pow((cl + cr - 0.5 * (g - 1) * (R->u - L->u)) / (cl / pow(L->p, z) + cr / pow(R->p, z)), 1 / z);
+  for (int it = 0; it < 100; ++it) {
+    double fl, dl, fr, dr;
+    toro_f(p, L, g, &fl, &dl);
+    toro_f(p, R, g, &fr, &dr);
+    double pn = p - (fl + fr + R->u - L->u) / (dl + dr);
+    if (pn < 1e-12) pn = 1e-12;
+    const double change = 2 * fabs(pn - p) / (pn + p);
+    p = pn;
+    if (change < 1e-13) break;
+  }
+  double fl, dl, fr, dr;
+  toro_f(p, L, g, &fl, &dl);
+  toro_f(p, R, g, &fr, &dr);
+  *ps = p;
+  *us = 0.5 * (L->u + R->u) + 0.5 * (fr - fl);
+}
+
+/* Density of the exact solution at x, t (diaphragm at 0). Sod: left rarefaction, right shock. */
+static inline double toro_rho(const sod_state *L, const sod_state *R, double g, double ps, double us, double x, double t)
+{
+  const double s = x / t, gm = (g - 1) / (g + 1);
+  const double cl = sqrt(g * L->p / L->rho), cr = sqrt(g * R->p / R->rho);
+  if (s <= us) {
+    if (ps > L->p) {
+      const double sl = L->u - cl * sqrt((g + 1) / (2 * g) * ps / L->p + (g - 1) / (2 * g));
+      return s <= sl ? L->rho : L->rho * (ps / L->p + gm) / (gm * ps / L->p + 1);
+    }
+    const double shl = L->u - cl, stl = us - cl * pow(ps / L->p, (g - 1) / (2 * g));
+    if (s <= shl) return L->rho;
+    if (s >= stl) return L->rho * pow(ps / L->p, 1 / g);
+    const double c = 2 / (g + 1) * (cl + 0.5 * (g - 1) * (L->u - s));
+    return L->rho * pow(c / cl, 2 / (g - 1));
+  }
+  if (ps > R->p) {
+    const double sr = R->u + cr * sqrt((g + 1) / (2 * g) * ps / R->p + (g - 1) / (2 * g));
+    return s >= sr ? R->rho : R->rho * (ps / R->p + gm) / (gm * ps / R->p + 1);
+  }
+  const double shr = R->u + cr, str = us + cr * pow(ps / R->p, (g - 1) / (2 * g));
+  if (s >= shr) return R->rho;
+  if (s <= str) return R->rho * pow(ps / R->p, 1 / g);
+  const double c = 2 / (g + 1) * (cr - 0.5 * (g - 1) * (R->u - s));
+  return R->rho * pow(c / cr, 2 / (g - 1));
+}
+
+#endif

@@ -1,0 +1,74 @@
+"""Helpers shared by the validation checkers: locate the build, write scenes, run ejecta, read
+frames and series from its HDF5 output. Only /usr/bin/python3 has numpy, h5py and matplotlib."""
+import os
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def ejecta_binary(build):
+    """build/bin/ejecta, with build relative to the working directory or the repository root."""
+    for base in (os.getcwd(), ROOT):
+        exe = os.path.join(base, build, "bin", "ejecta")
+        if os.path.isfile(exe) and os.access(exe, os.X_OK):
+            return exe
+    sys.exit(f"error: no ejecta executable under '{build}/bin' (build it first: make build)")
+
+
+def run(exe, scene_text, name, outdir, threads=2, reuse=False, log=print):
+    """Writes outdir/name.yaml, runs it into outdir/name.h5 (unless reuse and the file exists)
+    and returns (h5 path, wall seconds; 0 when reused)."""
+    os.makedirs(outdir, exist_ok=True)
+    scene = os.path.join(outdir, name + ".yaml")
+    out = os.path.join(outdir, name + ".h5")
+    if reuse and os.path.exists(out):
+        return out, 0.0
+    with open(scene, "w") as f:
+        f.write(scene_text)
+    t0 = time.time()
+    cmd = [exe, "run", scene, "-o", out, "--threads", str(threads)]
+    res = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    wall = time.time() - t0
+    if res.returncode != 0:
+        sys.stdout.write(res.stdout)
+        raise RuntimeError(f"{' '.join(cmd)} exited with {res.returncode}")
+    log(f"  ran {name:<24s} {wall:7.1f} s")
+    return out, wall
+
+
+def frames(path):
+    """Names of the frames in time order."""
+    with h5py.File(path, "r") as f:
+        return sorted(f["frames"].keys())
+
+
+def read_frame(path, frame=None, set_name=None):
+    """Fields of one set in one frame (the last by default) as a dict of arrays, plus 'time'
+    and 'step'."""
+    with h5py.File(path, "r") as f:
+        names = sorted(f["frames"].keys())
+        g = f["frames"][names[-1] if frame is None else frame]
+        s = g[set_name] if set_name else g[sorted(g.keys())[0]]
+        d = {k: s[k][()] for k in s.keys()}
+        d["time"] = float(g.attrs["time"])
+        d["step"] = int(g.attrs["step"])
+    return d
+
+
+def read_series(path, name="energy"):
+    with h5py.File(path, "r") as f:
+        g = f["series"][name]
+        return {k: g[k][()] for k in g.keys()}
+
+
+def order(h, err):
+    """Least-squares slope of log(err) against log(h), and the pairwise slopes."""
+    lh, le = np.log(np.asarray(h)), np.log(np.asarray(err))
+    slope = np.polyfit(lh, le, 1)[0]
+    pairs = [(le[i + 1] - le[i]) / (lh[i + 1] - lh[i]) for i in range(len(h) - 1)]
+    return slope, pairs
