@@ -301,7 +301,7 @@ typedef struct ej_xform {
   ej_real b[3];
 } ej_xform;
 
-#define EJ_MAX_XFORMS 64
+#define EJ_MAX_XFORMS 255 /* ghost_xf is a uint8_t */
 
 typedef struct ej_nbrlist ej_nbrlist;
 

@@ -371,17 +371,16 @@ static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, ej_real cutoff)
         ej_xform_compose(&mirror, cur, &t);
         EJ_TRY(ej_ghost_push(sim, s, src, &t));
       } else {
+        /* As many periods as the search radius spans (a thin periodic slab). */
         const ej_real L = bc->hi - bc->lo;
-        if (cutoff > L)
-          return ej_error_input(&bc->loc,
-                                "set '%s': the neighbour search radius %g m exceeds the periodic length %g m; "
-                                "enlarge the period or refine the particles",
-                                s->name, cutoff, L);
-        for (int side = 0; side < 2; ++side) {
-          bool near = side == 0 ? y[bc->axis] - bc->lo < cutoff : bc->hi - y[bc->axis] <= cutoff;
+        const int kmax = (int)ceil(cutoff / L);
+        for (int side = 0; side < 2; ++side)
+          for (int k = 1; k <= kmax; ++k) {
+          const ej_real reach = cutoff - (k - 1) * L;
+          bool near = side == 0 ? y[bc->axis] - bc->lo < reach : bc->hi - y[bc->axis] <= reach;
           if (!near) continue;
           ej_xform shift = {.Q = {1, 0, 0, 0, 1, 0, 0, 0, 1}};
-          shift.b[bc->axis] = side == 0 ? L : -L;
+          shift.b[bc->axis] = side == 0 ? k * L : -k * L;
           ej_xform t;
           ej_xform_compose(&shift, cur, &t);
           EJ_TRY(ej_ghost_push(sim, s, src, &t));

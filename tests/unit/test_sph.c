@@ -209,9 +209,10 @@ START_TEST(test_params_and_ops)
 {
   sph_fix f;
   fix_open(&f, 3, 1);
-  const char *names[] = {"kernel", "continuity", "h_factor", "variable_h", "alpha", "beta", "eta", "rho_min"};
-  for (int k = 0; k < 8; ++k) ck_assert_str_eq(f.mops->params[k].name, names[k]);
-  ck_assert_ptr_null(f.mops->params[8].name);
+  const char *names[] = {"kernel", "continuity", "renormalize", "h_factor", "variable_h", "alpha", "beta", "eta",
+                         "rho_min"};
+  for (int k = 0; k < 9; ++k) ck_assert_str_eq(f.mops->params[k].name, names[k]);
+  ck_assert_ptr_null(f.mops->params[9].name);
   ck_assert(*(int *)((char *)f.mcfg + find_param(f.mops->params, "continuity")->offset) == 0); /* volume */
   const ej_param *hf = find_param(f.mops->params, "h_factor");
   ck_assert(*(ej_real *)((char *)f.mcfg + hf->offset) == 1.3);
@@ -314,6 +315,18 @@ static void check_lattice(int dim, int kernel)
   ej_real *v = ej_set_field(f.set, "v");
   for (ej_idx i = 0; i < n; ++i)
     for (int d = 0; d < 3; ++d) v[3 * i + d] = -eps * x[3 * i + d];
+  /* renormalize: the rate is exactly dim eps rho */
+  fix_compute(&f);
+  {
+    const ej_real *rd = ej_set_field(f.set, "rho_dot"), *rh = ej_set_field(f.set, "rho");
+    ck_assert_msg(fabs(rd[centre] / rh[centre] - dim * eps) < 1e-10 * dim * eps,
+                  "dim %d kernel %d: renormalised rho_dot/rho = %.15g, expected %g", dim, kernel,
+                  rd[centre] / rh[centre], dim * eps);
+  }
+  /* without it: the raw kernel sum */
+  *(bool *)((char *)f.mcfg + find_param(f.mops->params, "renormalize")->offset) = false;
+  f.mops->destroy(f.mstate);
+  ck_assert_int_eq(f.mops->create(f.mcfg, f.set, &f.model, &f.mstate), EJ_OK);
   fix_compute(&f);
   const ej_real *rho_dot = ej_set_field(f.set, "rho_dot"), *rho = ej_set_field(f.set, "rho");
   const ej_real *m = ej_set_field(f.set, "m"), *h = ej_set_field(f.set, "h");
