@@ -215,8 +215,8 @@ START_TEST(test_params_and_ops)
   ck_assert_ptr_null(f.mops->params[9].name);
   ck_assert(*(int *)((char *)f.mcfg + find_param(f.mops->params, "continuity")->offset) == 0); /* volume */
   const ej_param *hf = find_param(f.mops->params, "h_factor");
-  ck_assert(*(ej_real *)((char *)f.mcfg + hf->offset) == 1.3);
-  ck_assert(hf->min == 0.5 && hf->max == 3.0);
+  ck_assert(*(ej_real *)((char *)f.mcfg + hf->offset) == 0.0); /* automatic per dimension */
+  ck_assert(hf->min == 0.0 && hf->max == 3.0);
   ck_assert(*(int *)((char *)f.mcfg + find_param(f.mops->params, "kernel")->offset) == SPH_KERNEL_CUBIC_SPLINE);
   ck_assert(*(bool *)((char *)f.mcfg + find_param(f.mops->params, "variable_h")->offset));
   ck_assert(*(ej_real *)((char *)f.mcfg + find_param(f.mops->params, "alpha")->offset) == 1.0);
@@ -356,7 +356,8 @@ static void check_lattice(int dim, int kernel)
                      a[3 * centre + 2] * a[3 * centre + 2];
   if (a2 > 0) expect = fmin(expect, sqrt(h[centre] / sqrt(a2)));
   ck_assert_double_eq_tol(dt, expect, 1e-14 * expect);
-  ck_assert_double_eq_tol(h[centre], 1.3 * dx, 1e-12 * dx);
+  const double hf = dim == 1 ? 2.0 : dim == 2 ? 1.5 : (kernel == SPH_KERNEL_CUBIC_SPLINE ? 1.3 : 1.5);
+  ck_assert_double_eq_tol(h[centre], hf * dx, 1e-12 * dx); /* h_factor 0: per-dimension default */
   fix_close(&f);
 }
 

@@ -37,14 +37,16 @@ TOL_3D_RATIO = 1.5
 # Monaghan & Gingold (1983) smooth the initial discontinuity over about one kernel width: with
 # a sharp jump, the evolved (continuity-equation) density of the first particles across the
 # diaphragm collapses and their smoothing lengths run away (see README.md). Here rho and p follow
-# rho_L + (rho_R - rho_L) (1 + tanh(x / w)) / 2 with w = 1.5 h = 1.95 dx, written as one
-# `initial` strip per lattice column with |x| < 5 w; the set-wide values are the left state.
-SMOOTH_W = 1.5 * 1.3
+# rho_L + (rho_R - rho_L) (1 + tanh(x / w)) / 2 with w = 1.5 h, h = h_factor dx with the sph
+# method's per-dimension default h_factor (2.0 in 1D, 1.3 in 3D), written as one `initial`
+# strip per lattice column with |x| < 5 w; the set-wide values are the left state.
+H_FACTOR = {1: 2.0, 2: 1.5, 3: 1.3}
+SMOOTH_W = 1.5
 
 
 def sod_scene(dim, dx, t_end=T_END, width=0.04, out="out/sod.h5", every=0.05, header=""):
     """Scene text of the Sod tube: dim 1, or 3 with a periodic square cross-section [0, width]^2."""
-    w = SMOOTH_W * dx
+    w = SMOOTH_W * H_FACTOR[dim] * dx
     n = int(round(1.0 / dx))
     lo3 = ", 0, 0" if dim == 3 else ""
     hi3 = f", {width:g}, {width:g}" if dim == 3 else ""
