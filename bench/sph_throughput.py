@@ -14,7 +14,7 @@ Measured (best of --repeats wall times, each a separate `ejecta run` process):
   T(1)  a run of 1 step: start-up, particle generation, first rebuild and force evaluation,
         two output frames and the checkpoint (setup + fixed cost);
   T(N)  the same run with N steps. The step rate is n (N - 1) / (T(N) - T(1)).
-Memory: peak RSS (wait4 ru_maxrss) of the N-step run minus that of a 6^3-particle run, over n.
+Memory: peak RSS (GNU time %M, or VmHWM) of the N-step run minus that of a 6^3-particle run, over n.
 The neighbour count is measured by brute force (periodic minimum image) on 1000 random
 particles of the last frame: pairs with r < 2 hbar (the ones the pair loop evaluates) and the
 Verlet-list entries (r < max(2h_i, 2h_j) + skin), which the loop visits.
@@ -74,19 +74,40 @@ boundaries:
 """
 
 
-def run_once(exe, scene_path, out, threads, prefix=()):
-    """Runs ejecta once; returns (wall seconds, peak RSS in bytes)."""
-    cmd = list(prefix) + [exe, "run", scene_path, "-o", out, "--threads", str(threads)]
+def run_once(exe, scene_path, out, threads):
+    """Runs ejecta once; returns (wall seconds, peak RSS in bytes).
+
+    The peak RSS comes from GNU time (%M) when /usr/bin/time exists, else from polling VmHWM in
+    /proc/PID/status. Not from wait4's ru_maxrss: that keeps the high-water mark of the forked
+    Python interpreter (numpy, h5py: tens of MiB) across the exec."""
+    cmd = [exe, "run", scene_path, "-o", out, "--threads", str(threads)]
+    rss_file = out + ".rss"
+    gnu_time = os.access("/usr/bin/time", os.X_OK)
+    if gnu_time:
+        cmd = ["/usr/bin/time", "-f", "%M", "-o", rss_file] + cmd
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    output = proc.stdout.read()
-    _, status, ru = os.wait4(proc.pid, 0)
+    hwm = 0
+    if not gnu_time:
+        while proc.poll() is None:
+            try:
+                with open(f"/proc/{proc.pid}/status") as f:
+                    for line in f:
+                        if line.startswith("VmHWM:"):
+                            hwm = max(hwm, int(line.split()[1]) * 1024)
+            except OSError:
+                pass
+            time.sleep(0.01)
+    output = proc.communicate()[0]
     wall = time.perf_counter() - t0
-    proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode != 0:
         sys.stdout.write(output.decode(errors="replace"))
         raise RuntimeError(f"{' '.join(cmd)} exited with {proc.returncode}")
-    return wall, ru.ru_maxrss * 1024  # ru_maxrss is in KiB on Linux
+    if gnu_time:
+        with open(rss_file) as f:
+            hwm = int(f.read().split()[-1]) * 1024  # KiB
+        os.remove(rss_file)
+    return wall, hwm
 
 
 def write_scene(outdir, name, text):

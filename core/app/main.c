@@ -105,10 +105,17 @@ static int cmd_run(int argc, char **argv, bool check_only)
            scene->t_end);
   } else {
     EJ_TRY_GOTO(rc, ej_sim_run(sim), out);
-    printf("ejecta: wrote %s (%lld steps, t = %g s; open %.*s.xdmf in ParaView)\n", sim->out_path,
-           (long long)sim->step, sim->t, (int)(strrchr(sim->out_path, '.') ? strrchr(sim->out_path, '.') - sim->out_path
+    printf("ejecta: wrote %s (%lld steps, %lld neighbour rebuilds, t = %g s; open %.*s.xdmf in ParaView)\n",
+           sim->out_path, (long long)sim->step, (long long)sim->n_rebuilds, sim->t, (int)(strrchr(sim->out_path, '.') ? strrchr(sim->out_path, '.') - sim->out_path
                                                                             : (long)strlen(sim->out_path)),
            sim->out_path);
+    for (int i = 0; i < sim->n_sets; ++i) {
+      const ej_set *s = sim->sets[i];
+      ej_counter cnt[16];
+      int nc = 0;
+      if (s->mops->counters && s->mops->counters(s->mstate, cnt, 16, &nc) == EJ_OK)
+        for (int k = 0; k < nc; ++k) printf("ejecta: set '%s': %s: %lld\n", s->name, cnt[k].name, (long long)cnt[k].value);
+    }
     printf("ejecta: energy balance error %.3e J (%.3e of the initial total)\n", sim->energy.balance,
            sim->energy.total0 != 0 ? sim->energy.balance / sim->energy.total0 : 0.0);
   }

@@ -209,10 +209,10 @@ START_TEST(test_params_and_ops)
 {
   sph_fix f;
   fix_open(&f, 3, 1);
-  const char *names[] = {"kernel", "continuity", "renormalize", "h_factor", "variable_h", "alpha", "beta", "eta",
-                         "rho_min"};
-  for (int k = 0; k < 9; ++k) ck_assert_str_eq(f.mops->params[k].name, names[k]);
-  ck_assert_ptr_null(f.mops->params[9].name);
+  const char *names[] = {"kernel", "continuity", "renormalize", "correction", "h_factor", "h_min", "h_max",
+                         "variable_h", "alpha", "beta", "eta", "rho_min"};
+  for (int k = 0; k < 12; ++k) ck_assert_str_eq(f.mops->params[k].name, names[k]);
+  ck_assert_ptr_null(f.mops->params[12].name);
   ck_assert(*(int *)((char *)f.mcfg + find_param(f.mops->params, "continuity")->offset) == 0); /* volume */
   const ej_param *hf = find_param(f.mops->params, "h_factor");
   ck_assert(*(ej_real *)((char *)f.mcfg + hf->offset) == 0.0); /* automatic per dimension */
@@ -223,22 +223,24 @@ START_TEST(test_params_and_ops)
   ck_assert(*(ej_real *)((char *)f.mcfg + find_param(f.mops->params, "beta")->offset) == 2.0);
   ck_assert(*(ej_real *)((char *)f.mcfg + find_param(f.mops->params, "eta")->offset) == 0.1);
   ck_assert(*(ej_real *)((char *)f.mcfg + find_param(f.mops->params, "rho_min")->offset) == 1e-6);
-  ck_assert_int_eq(f.mops->n_passes, 2);
+  ck_assert_int_eq(f.mops->n_passes, 3);
   ck_assert_ptr_nonnull(f.mops->setup);
-  ck_assert_ptr_null(f.mops->counters);
+  ck_assert_ptr_nonnull(f.mops->counters);
   fix_close(&f);
 }
 END_TEST
 
 /* Random cloud, random density, energy and velocity (so viscosity acts on many pairs):
  * sum_i m_i a_i = 0 and sum_i m_i (v_i . a_i + de_i/dt) = 0 to round-off. */
-static void check_conservation(int dim, int kernel, bool variable_h)
+static void check_conservation(int dim, int kernel, bool variable_h, bool correction)
 {
   const ej_idx n = dim == 3 ? 600 : dim == 2 ? 300 : 80;
   sph_fix f;
   fix_open(&f, dim, n);
   set_enum(&f, "kernel", kernel);
   set_bool(&f, "variable_h", variable_h);
+  set_bool(&f, "correction", correction);
+  ck_assert_int_eq(ej_decl_probe(f.mops, f.mcfg, f.set), EJ_OK); /* correction adds fields */
   uint64_t seed = 12345u + (uint64_t)(dim * 10 + kernel);
   ej_real *x = ej_set_field(f.set, "x"), *v = ej_set_field(f.set, "v"), *m = ej_set_field(f.set, "m");
   ej_real *vol0 = ej_set_field(f.set, "vol0"), *rho = ej_set_field(f.set, "rho"), *e = ej_set_field(f.set, "e");
@@ -284,7 +286,57 @@ static void check_conservation(int dim, int kernel, bool variable_h)
 START_TEST(test_conservation)
 {
   for (int dim = 1; dim <= 3; ++dim)
-    for (int kernel = 0; kernel < 2; ++kernel) check_conservation(dim, kernel, kernel == 0);
+    for (int kernel = 0; kernel < 2; ++kernel)
+      for (int corr = 0; corr < 2; ++corr) check_conservation(dim, kernel, kernel == 0, corr);
+}
+END_TEST
+
+/* With the gradient correction, the continuity equation differentiates any linear velocity
+ * field exactly on an irregular (jittered) lattice: rho_dot / rho = -tr(A) for v = A x. */
+static void check_correction(int dim, int kernel)
+{
+  const int side = dim == 3 ? 9 : dim == 2 ? 15 : 31;
+  const ej_real dx = 0.01;
+  sph_fix f;
+  const ej_idx n = lattice(&f, dim, side, dx, 1.0, 1.0);
+  set_enum(&f, "kernel", kernel);
+  set_bool(&f, "correction", true);
+  ck_assert_int_eq(ej_decl_probe(f.mops, f.mcfg, f.set), EJ_OK);
+  uint64_t seed = 777u + (uint64_t)dim;
+  ej_real *x = ej_set_field(f.set, "x"), *v = ej_set_field(f.set, "v");
+  for (ej_idx i = 0; i < n; ++i)
+    for (int d = 0; d < dim; ++d) x[3 * i + d] += 0.3 * dx * (rng_uniform(&seed) - 0.5);
+  ej_real A[9], tr = 0;
+  for (int k = 0; k < 9; ++k) A[k] = 2.0 * rng_uniform(&seed) - 1.0;
+  for (int d = 0; d < dim; ++d) tr += A[4 * d];
+  for (ej_idx i = 0; i < n; ++i)
+    for (int r = 0; r < 3; ++r) {
+      v[3 * i + r] = 0;
+      if (r < dim)
+        for (int c = 0; c < dim; ++c) v[3 * i + r] += A[3 * r + c] * x[3 * i + c];
+    }
+  fix_start(&f);
+  fix_compute(&f);
+  const ej_real *rho_dot = ej_set_field(f.set, "rho_dot"), *rho = ej_set_field(f.set, "rho");
+  const ej_real *h = ej_set_field(f.set, "h");
+  const ej_real R = 0.5 * (side - 1) * dx;
+  int checked = 0;
+  for (ej_idx i = 0; i < n; ++i) {
+    bool interior = true;
+    for (int d = 0; d < dim; ++d) interior &= fabs(x[3 * i + d]) < R - 2.5 * h[i];
+    if (!interior) continue;
+    ck_assert_msg(fabs(rho_dot[i] / rho[i] + tr) < 1e-10 * fabs(tr) + 1e-12,
+                  "dim %d kernel %d: rho_dot/rho %.15g, expected %.15g", dim, kernel, rho_dot[i] / rho[i], -tr);
+    ++checked;
+  }
+  ck_assert_int_gt(checked, 0);
+  fix_close(&f);
+}
+
+START_TEST(test_correction)
+{
+  for (int dim = 1; dim <= 3; ++dim)
+    for (int kernel = 0; kernel < 2; ++kernel) check_correction(dim, kernel);
 }
 END_TEST
 
@@ -462,6 +514,7 @@ int main(void)
   tcase_add_test(tm, test_params_and_ops);
   tcase_add_test(tm, test_conservation);
   tcase_add_test(tm, test_lattice);
+  tcase_add_test(tm, test_correction);
   tcase_add_test(tm, test_density_floor);
   tcase_add_test(tm, test_fixed_h);
   tcase_add_test(tm, test_needs_eos);

@@ -10,8 +10,10 @@ Scene: examples/sedov_3d.yaml (octant [0, 0.5]^3, three symmetry planes, E = 0.1
 octant = 1 J in full space, rho = 1, background p = 1e-6 Pa). Spacing 0.02 (15.6k particles) by
 default, 0.01 (125k particles) with --full.
 
-Measured shock radius: the radius of the peak of the particles' mean density in radial bins of
-half a spacing (parabola through the top bin and its neighbours). Tolerances: |R - R_exact| /
+Measured shock radius: a captured shock is smeared over a few smoothing lengths and its density
+peak sits behind the front, so the shock position is taken where the mean density in radial bins
+of half a spacing falls, ahead of its peak, to half way between the peak and the ambient density
+(linear interpolation between bins). The peak radius is reported too. Tolerances: |R - R_exact| /
 R_exact <= 3 % at every output time t >= 0.02 s; energy balance |balance| / total0 <= 0.5 % over
 the whole run (/series/energy).
 """
@@ -65,6 +67,19 @@ def peak_radius(d, dx):
     return centres[j], centres, mean, cnt
 
 
+def front_radius(d, dx, ambient=RHO):
+    """Leading-edge mid-height of the binned density jump (the captured shock's position)."""
+    R_peak, centres, mean, cnt = peak_radius(d, dx)
+    ok = (cnt >= 3) & (centres < 0.45)
+    j = int(np.argmax(np.where(ok, mean, -np.inf)))
+    half = 0.5 * (mean[j] + ambient)
+    for k in range(j + 1, len(mean)):
+        if ok[k] and mean[k] <= half:
+            f = (mean[k - 1] - half) / (mean[k - 1] - mean[k])
+            return centres[k - 1] + f * (centres[k] - centres[k - 1]), R_peak
+    return R_peak, R_peak
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default="build")
@@ -82,19 +97,19 @@ def main():
 
     ok = True
     rows = []
-    print(f"\n  {'t [s]':>7} {'R ejecta':>9} {'R exact':>9} {'error':>8}")
+    print(f"\n  {'t [s]':>7} {'R ejecta':>9} {'R exact':>9} {'error':>8}   (R peak)")
     for fr in common.frames(path):
         d = common.read_frame(path, fr)
         t = d["time"]
         if t < T_MIN - 1e-9:
             continue
-        R, *_ = peak_radius(d, dx)
+        R, R_peak = front_radius(d, dx)
         Re = sedov_exact.shock_radius(t, E_FULL, RHO, xi0)
         err = (R - Re) / Re
         good = abs(err) <= TOL_R
         ok &= good
         rows.append((t, R, Re, err))
-        print(f"  {t:7.4f} {R:9.4f} {Re:9.4f} {100 * err:7.2f}%  {'PASS' if good else 'FAIL'}")
+        print(f"  {t:7.4f} {R:9.4f} {Re:9.4f} {100 * err:7.2f}%  {'PASS' if good else 'FAIL'}  ({R_peak:.4f})")
     es = common.read_series(path)
     total0 = es["kinetic"][0] + es["internal"][0]
     bal = np.abs(es["balance"]) / total0
@@ -113,7 +128,8 @@ def main():
     t = d["time"]
     Re = sedov_exact.shock_radius(t, E_FULL, RHO, xi0)
     r = np.linalg.norm(d["x"], axis=1)
-    R, centres, mean, cnt = peak_radius(d, dx)
+    _, centres, mean, cnt = peak_radius(d, dx)
+    R, _ = front_radius(d, dx)
     _, xs, gs, _, _ = sedov_exact.profile(GAMMA)
     ax = axes[0]
     ax.plot(r, d["rho"], ".", ms=1, alpha=0.3, color="C0", label="particles")
@@ -131,7 +147,7 @@ def main():
     ax.plot(tt, sedov_exact.shock_radius(tt, E_FULL, RHO, xi0), "k-", lw=1, label=r"$\xi_0 (E t^2/\rho)^{1/5}$")
     ax.fill_between(tt, (1 - TOL_R) * sedov_exact.shock_radius(tt, E_FULL, RHO, xi0),
                     (1 + TOL_R) * sedov_exact.shock_radius(tt, E_FULL, RHO, xi0), color="0.85", label="±3 %")
-    ax.plot([q[0] for q in rows], [q[1] for q in rows], "o", color="C1", label="ejecta (density peak)")
+    ax.plot([q[0] for q in rows], [q[1] for q in rows], "o", color="C1", label="ejecta (shock front: mid-height of the jump)")
     ax.set_xlabel("t [s]")
     ax.set_ylabel("shock radius [m]")
     ax.legend()

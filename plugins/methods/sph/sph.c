@@ -5,10 +5,11 @@
  * gas). Monaghan viscosity Eqs 26-28; time step after Monaghan, "Smoothed particle
  * hydrodynamics", ARA&A 30 (1992) 543, section 10.3.
  *
- * Two passes per step, because a pair needs p, c and h of both particles:
+ * Three passes per step, because a pair needs p, c, h (and L) of both particles:
  *   pass 0 (per particle): density floor, smoothing length h, EOS -> p, c;
- *   (the core copies fields to ghost particles)
- *   pass 1 (pairs, gather form): accelerations and rates of rho, e, w_visc; mu_max for dt.
+ *   (the core copies fields to ghost particles between passes)
+ *   pass 1 (pairs, only with `correction`): the gradient correction matrix L_i;
+ *   pass 2 (pairs, gather form): accelerations and rates of rho, e, w_visc; mu_max for dt.
  * The method accumulates into a, rho_dot, e_dot and w_visc_dot, which the core zeroes (a:
  * sets to the body force) before pass 0, so that other contributions compose. */
 #include <math.h>
@@ -21,8 +22,10 @@ typedef struct sph_config {
   int kernel;
   int continuity;
   bool renormalize;
+  bool correction;
   ej_real h_factor;
   bool variable_h;
+  ej_real h_min, h_max;
   ej_real alpha, beta, eta;
   ej_real rho_min;
 } sph_config;
@@ -42,10 +45,19 @@ static const ej_param sph_params[] = {
                   "Divide the discrete velocity divergence of the continuity equation by the discrete "
                   "divergence of x over dim, so that uniform compression and expansion are exact (the "
                   "density stays consistent with the particle volumes through shocks)."),
+    EJ_PARAM_BOOL(sph_config, correction, 0,
+                  "Kernel gradient correction (Bonet & Lok 1999) in the conservative form "
+                  "G_ij = (L_i + L_j)/2 grad_i W_ij: linear fields exact on any particle arrangement "
+                  "(needed when compression is one-sided, e.g. a shock tube in 3D); one more pair pass."),
     EJ_PARAM_REAL(sph_config, h_factor, "1", 0.0, 0.0, 3.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Smoothing length in particle spacings, h = h_factor (m/rho)^(1/dim); 0 picks the "
                   "value where the kernel's lattice sums are most accurate for the dimension "
                   "(cubic spline: 2.0 in 1D, exact; 1.5 in 2D; 1.3 in 3D, about 60-80 neighbours)."),
+    EJ_PARAM_REAL(sph_config, h_min, "1", 0.2, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN | EJ_PF_HAS_MAX,
+                  "Lower bound of a variable h as a multiple of the initial h (LS-DYNA HMIN)."),
+    EJ_PARAM_REAL(sph_config, h_max, "1", 2.0, 1.0, 0.0, EJ_PF_HAS_MIN,
+                  "Upper bound of a variable h as a multiple of the initial h (LS-DYNA HMAX): keeps "
+                  "the neighbour count bounded where the gas expands towards vacuum."),
     EJ_PARAM_BOOL(sph_config, variable_h, 1,
                   "Adapt h to the current density (true) or keep h = h_factor vol0^(1/dim)."),
     EJ_PARAM_REAL(sph_config, alpha, "1", 1.0, 0.0, 0.0, EJ_PF_HAS_MIN,
@@ -62,6 +74,7 @@ static const ej_param sph_params[] = {
 
 typedef struct sph_state {
   sph_config cfg;
+  const ej_set *set;
   int dim;
   const ej_eos *eos;
   const char *set_name;
@@ -71,7 +84,7 @@ typedef struct sph_state {
 
 static ej_err sph_declare(const void *config, int dim, ej_decl *d)
 {
-  (void)config;
+  const sph_config *cfg = config;
   EJ_ENSURE(dim >= 1 && dim <= 3, EJ_ERR_ARG, "sph: dimension %d not in 1..3", dim);
   static const ej_field_decl fields[] = {
       {.name = "rho", .kind = EJ_SCALAR, .flags = EJ_FIELD_OUTPUT, .unit = "kg/m^3", .rate = "rho_dot",
@@ -95,6 +108,15 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
        .doc = "Largest |mu_ij| over approaching neighbours, for the viscous time step."},
   };
   for (size_t k = 0; k < sizeof fields / sizeof fields[0]; ++k) EJ_TRY(ej_decl_field(d, &fields[k]));
+  if (cfg->correction) {
+    static const ej_field_decl corr[] = {
+        {.name = "L_corr", .kind = EJ_SYM6, .flags = EJ_FIELD_SCRATCH, .unit = "1",
+         .doc = "Gradient correction L_i = (sum_j V_j grad_i W_ij (x) x_ji)^-1."},
+        {.name = "corr_fallbacks", .kind = EJ_INT, .flags = EJ_FIELD_NO_GHOST, .unit = "1",
+         .doc = "Steps in which L_i was ill-conditioned and the uncorrected gradient was used."},
+    };
+    for (size_t k = 0; k < sizeof corr / sizeof corr[0]; ++k) EJ_TRY(ej_decl_field(d, &corr[k]));
+  }
   EJ_TRY(ej_decl_neighbours(d, EJ_NBR_CURRENT));
   return EJ_OK;
 }
@@ -135,6 +157,7 @@ static ej_err sph_create(const void *config, ej_set *set, const ej_model *model,
   s->dim = dim;
   s->eos = eos;
   s->set_name = ej_set_name(set);
+  s->set = set;
   *state = s;
   return EJ_OK;
 }
@@ -152,7 +175,14 @@ static inline ej_real sph_root(int dim, ej_real v) { return dim == 3 ? cbrt(v) :
  * no iteration on rho, because here rho is evolved, not summed). */
 static inline ej_real sph_h(const sph_config *cfg, int dim, ej_real m, ej_real vol0, ej_real rho)
 {
-  return cfg->h_factor * sph_root(dim, cfg->variable_h ? m / rho : vol0);
+  if (!cfg->variable_h) return cfg->h_factor * sph_root(dim, vol0);
+  /* (m/rho) / vol0 = rho0 / rho, bounded to [h_min, h_max]^dim (LS-DYNA *SECTION_SPH HMIN, HMAX) */
+  ej_real ratio = m / (rho * vol0);
+  const ej_real lo = cfg->h_min, hi = cfg->h_max;
+  const ej_real lo_d = dim == 3 ? lo * lo * lo : dim == 2 ? lo * lo : lo;
+  const ej_real hi_d = dim == 3 ? hi * hi * hi : dim == 2 ? hi * hi : hi;
+  ratio = ratio < lo_d ? lo_d : ratio > hi_d ? hi_d : ratio;
+  return cfg->h_factor * sph_root(dim, ratio * vol0);
 }
 
 /* The floor is relative to the initial density m/vol0 (the core sets m = rho_init vol0). */
@@ -244,13 +274,103 @@ static ej_err sph_support(void *state, const ej_set *set, ej_range r, ej_real *r
 #endif
 
 typedef struct sph_pair_args {
-  const ej_real *x, *v, *m, *rho, *p_rho2, *c, *h, *w_cont;
+  const ej_real *x, *v, *m, *rho, *p_rho2, *c, *h, *w_cont, *L;
   bool volume_form, renormalize;
   ej_real *a, *rho_dot, *e_dot, *w_dot, *mu_max;
   const ej_off *off;
   const ej_idx *idx;
   ej_real alpha, beta, eta2;
 } sph_pair_args;
+
+/* Kernel gradient correction, Bonet & Lok, CMAME 180 (1999) 97, Eq 37 (also Randles &
+ * Libersky 1996): B_i = sum_j V_j grad_i W_ij (x) x_ji = -sum_j V_j W'/r r_ij (x) r_ij
+ * (symmetric, ~ I for a full support), L_i = B_i^-1, so that sum_j V_j (f_j - f_i) L_i grad_i W_ij
+ * is the exact gradient of any linear f. Only the dim x dim block is used. A particle with
+ * too few or coplanar neighbours (free surface, expanding front) has a nearly singular B:
+ * it keeps L = I and the event is counted. */
+static inline SPH_ALWAYS_INLINE void sph_corr_rows(const int kernel, const int dim, const ej_real *restrict x,
+                                                    const ej_real *restrict m, const ej_real *restrict rho,
+                                                    const ej_real *restrict h, const ej_off *restrict off,
+                                                    const ej_idx *restrict idx, ej_real *restrict L,
+                                                    int32_t *restrict fallbacks, ej_range rg)
+{
+  const ej_real sigma = sph_kernel_sigma(kernel, dim);
+  for (ej_idx i = rg.begin; i < rg.end; ++i) {
+    ej_real b[6] = {0, 0, 0, 0, 0, 0}; /* xx yy zz xy yz zx */
+    for (ej_off k = off[i]; k < off[i + 1]; ++k) {
+      const ej_idx j = idx[k];
+      const ej_real rx = x[3 * i] - x[3 * j];
+      const ej_real ry = dim > 1 ? x[3 * i + 1] - x[3 * j + 1] : 0.0;
+      const ej_real rz = dim > 2 ? x[3 * i + 2] - x[3 * j + 2] : 0.0;
+      const ej_real r2 = rx * rx + ry * ry + rz * rz;
+      const ej_real hbar = 0.5 * (h[i] + h[j]);
+      if (r2 >= 4.0 * hbar * hbar || r2 <= 0.0) continue;
+      const ej_real r = sqrt(r2), inv_h = 1.0 / hbar;
+      const ej_real w = -(m[j] / rho[j]) * sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) / r;
+      b[0] += w * rx * rx;
+      if (dim > 1) b[1] += w * ry * ry, b[3] += w * rx * ry;
+      if (dim > 2) b[2] += w * rz * rz, b[4] += w * ry * rz, b[5] += w * rz * rx;
+    }
+    ej_real *Li = L + 6 * i;
+    Li[0] = Li[1] = Li[2] = 1.0;
+    Li[3] = Li[4] = Li[5] = 0.0;
+    /* well-conditioned: det(B) above 1e-3 of (tr B / dim)^dim */
+    const ej_real tr = (b[0] + (dim > 1 ? b[1] : 0) + (dim > 2 ? b[2] : 0)) / dim;
+    ej_real det;
+    if (dim == 1) {
+      det = b[0];
+      if (det > 1e-3 * tr) Li[0] = 1.0 / b[0];
+      else ++fallbacks[i];
+    } else if (dim == 2) {
+      det = b[0] * b[1] - b[3] * b[3];
+      if (tr > 0 && det > 1e-3 * tr * tr) {
+        Li[0] = b[1] / det, Li[1] = b[0] / det, Li[3] = -b[3] / det;
+      } else {
+        ++fallbacks[i];
+      }
+    } else {
+      const ej_real c0 = b[1] * b[2] - b[4] * b[4], c1 = b[4] * b[5] - b[3] * b[2], c2 = b[3] * b[4] - b[1] * b[5];
+      det = b[0] * c0 + b[3] * c1 + b[5] * c2;
+      if (tr > 0 && det > 1e-3 * tr * tr * tr) {
+        const ej_real id = 1.0 / det;
+        Li[0] = c0 * id;
+        Li[1] = (b[0] * b[2] - b[5] * b[5]) * id;
+        Li[2] = (b[0] * b[1] - b[3] * b[3]) * id;
+        Li[3] = c1 * id;
+        Li[4] = (b[3] * b[5] - b[0] * b[4]) * id;
+        Li[5] = c2 * id;
+      } else {
+        ++fallbacks[i];
+      }
+    }
+  }
+}
+
+static ej_err sph_corr_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
+{
+  if (!s->cfg.correction) return EJ_OK;
+  const ej_real *x = ej_set_field(set, "x"), *m = ej_set_field(set, "m"), *rho = ej_set_field(set, "rho");
+  const ej_real *h = ej_set_field(set, "h");
+  ej_real *L = ej_set_field(set, "L_corr");
+  int32_t *fb = ej_set_field_int(set, "corr_fallbacks");
+  EJ_ENSURE(x && m && rho && h && L && fb && nbr, EJ_ERR_INTERNAL, "set '%s': sph correction fields missing",
+            s->set_name);
+#define SPH_CORR_CASE(k, d)                                                                             \
+  case (k) * 4 + (d):                                                                                   \
+    sph_corr_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, L, fb, r);                                \
+    break
+  switch (s->cfg.kernel * 4 + s->dim) {
+    SPH_CORR_CASE(SPH_KERNEL_CUBIC_SPLINE, 1);
+    SPH_CORR_CASE(SPH_KERNEL_CUBIC_SPLINE, 2);
+    SPH_CORR_CASE(SPH_KERNEL_CUBIC_SPLINE, 3);
+    SPH_CORR_CASE(SPH_KERNEL_WENDLAND_C2, 1);
+    SPH_CORR_CASE(SPH_KERNEL_WENDLAND_C2, 2);
+    SPH_CORR_CASE(SPH_KERNEL_WENDLAND_C2, 3);
+  default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: kernel %d, dimension %d", s->cfg.kernel, s->dim);
+  }
+#undef SPH_CORR_CASE
+  return EJ_OK;
+}
 
 /* The pair loop. kernel and dim are compile-time constants at every call site (the function
  * is always inlined into a switch), so the kernel branch and the dimension masks fold away.
@@ -273,13 +393,13 @@ typedef struct sph_pair_args {
  *   mu_ij = hbar v_ij.x_ij / (|x_ij|^2 + eta^2 hbar^2)                               (Eq 27)
  * v_ij.x_ij = (v_i - v_j).(x_i - x_j), so the digest's x_ij = x_j - x_i convention and ours
  * give the same mu. */
-static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, const sph_pair_args *A,
-                                                ej_range rg)
+static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, const bool corr,
+                                                const sph_pair_args *A, ej_range rg)
 {
   const ej_real *restrict x = A->x, *restrict v = A->v, *restrict m = A->m, *restrict rho = A->rho;
   const ej_real *restrict p_rho2 = A->p_rho2, *restrict c = A->c, *restrict h = A->h;
-  const ej_real *restrict w_cont = A->w_cont;
-  const bool volume_form = A->volume_form, renormalize = A->renormalize;
+  const ej_real *restrict w_cont = A->w_cont, *restrict L = A->L;
+  const bool volume_form = A->volume_form, renormalize = A->renormalize && !corr;
   ej_real *restrict a = A->a, *restrict rho_dot = A->rho_dot, *restrict e_dot = A->e_dot;
   ej_real *restrict w_dot = A->w_dot, *restrict mu_max = A->mu_max;
   const ej_off *restrict off = A->off;
@@ -292,6 +412,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
     const ej_real vi0 = v[3 * i], vi1 = dim > 1 ? v[3 * i + 1] : 0.0, vi2 = dim > 2 ? v[3 * i + 2] : 0.0;
     const ej_real rhoi = rho[i], hi = h[i], ci = c[i];
     const ej_real pri = p_rho2[i];
+    const ej_real *li = corr ? L + 6 * i : NULL;
     ej_real ax = 0.0, ay = 0.0, az = 0.0, drho = 0.0, norm = 0.0, de = 0.0, dw = 0.0, mumax = 0.0;
     for (ej_off k = off[i]; k < off[i + 1]; ++k) {
       const ej_idx j = idx[k];
@@ -324,15 +445,33 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
       const ej_real pi_ij = (-alpha * 0.5 * (ci + c[j]) * mu + beta * mu * mu) * 2.0 * inv_rho_sum;
       mumax = -mu > mumax ? -mu : mumax;
       const ej_real mj = m[j];
-      const ej_real f = mj * (pri + p_rho2[j] + pi_ij) * gw;
-      const ej_real vgw = vr * gw; /* (v_i - v_j) . grad_i W_ij */
-      ax -= f * rx;
-      if (dim > 1) ay -= f * ry;
-      if (dim > 2) az -= f * rz;
-      drho += w_cont[j] * vgw;
-      norm += w_cont[j] * r2 * gw; /* = -sum_j w_j x_ji . grad_i W_ij */
-      de += f * vr;
-      dw += mj * pi_ij * vgw;
+      const ej_real fP = mj * (pri + p_rho2[j] + pi_ij);
+      /* G_ij: grad_i W_ij, or with the correction (L_i + L_j)/2 grad_i W_ij, antisymmetric
+       * under i <-> j either way, so pair forces stay equal and opposite. The continuity
+       * equation (row i only) uses L_i grad_i W_ij. */
+      ej_real gx = gw * rx, gy = gw * ry, gz = gw * rz, vC;
+      if (corr) {
+        const ej_real *Lj = L + 6 * j;
+        const ej_real s0 = 0.5 * (li[0] + Lj[0]), s1 = 0.5 * (li[1] + Lj[1]), s2 = 0.5 * (li[2] + Lj[2]);
+        const ej_real s3 = 0.5 * (li[3] + Lj[3]), s4 = 0.5 * (li[4] + Lj[4]), s5 = 0.5 * (li[5] + Lj[5]);
+        const ej_real ux = gw * rx, uy = gw * ry, uz = gw * rz;
+        gx = s0 * ux + s3 * uy + s5 * uz;
+        gy = dim > 1 ? s3 * ux + s1 * uy + s4 * uz : 0.0;
+        gz = dim > 2 ? s5 * ux + s4 * uy + s2 * uz : 0.0;
+        vC = vx * (li[0] * ux + li[3] * uy + li[5] * uz);
+        if (dim > 1) vC += vy * (li[3] * ux + li[1] * uy + li[4] * uz);
+        if (dim > 2) vC += vz * (li[5] * ux + li[4] * uy + li[2] * uz);
+      } else {
+        vC = vr * gw;
+      }
+      const ej_real vG = corr ? vx * gx + vy * gy + vz * gz : vr * gw; /* (v_i - v_j) . G_ij */
+      ax -= fP * gx;
+      if (dim > 1) ay -= fP * gy;
+      if (dim > 2) az -= fP * gz;
+      drho += w_cont[j] * vC;
+      if (!corr) norm += w_cont[j] * r2 * gw; /* = -sum_j w_j x_ji . grad_i W_ij */
+      de += fP * vG;
+      dw += mj * pi_ij * vG;
     }
     a[3 * i] += ax;
     if (dim > 1) a[3 * i + 1] += ay;
@@ -358,7 +497,7 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
   sph_pair_args A = {
       .x = ej_set_field(set, "x"), .v = ej_set_field(set, "v"), .m = ej_set_field(set, "m"),
       .rho = ej_set_field(set, "rho"), .p_rho2 = ej_set_field(set, "p_rho2"), .c = ej_set_field(set, "c"),
-      .h = ej_set_field(set, "h"), .w_cont = ej_set_field(set, "w_cont"),
+      .h = ej_set_field(set, "h"), .w_cont = ej_set_field(set, "w_cont"), .L = ej_set_field(set, "L_corr"),
       .volume_form = s->cfg.continuity == SPH_CONT_VOLUME, .renormalize = s->cfg.renormalize, .a = ej_set_field(set, "a"), .rho_dot = ej_set_field(set, "rho_dot"),
       .e_dot = ej_set_field(set, "e_dot"), .w_dot = ej_set_field(set, "w_visc_dot"),
       .mu_max = ej_set_field(set, "mu_max"), .off = nbr->off, .idx = nbr->idx,
@@ -369,7 +508,8 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
   /* One instantiation per (kernel, dim): no per-pair dispatch. */
 #define SPH_CASE(k, d)                                                                                  \
   case (k) * 4 + (d):                                                                                   \
-    sph_pairs((k), (d), &A, r);                                                                         \
+    if (s->cfg.correction) sph_pairs((k), (d), true, &A, r);                                            \
+    else sph_pairs((k), (d), false, &A, r);                                                             \
     break
   switch (s->cfg.kernel * 4 + s->dim) {
     SPH_CASE(SPH_KERNEL_CUBIC_SPLINE, 1);
@@ -385,13 +525,27 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
   return EJ_OK;
 }
 
+static ej_err sph_counters(void *state, ej_counter *out, int max, int *n)
+{
+  const sph_state *s = state;
+  *n = 0;
+  const int32_t *fb = ej_set_field_int(s->set, "corr_fallbacks");
+  if (!fb || max < 1) return EJ_OK;
+  int64_t total = 0;
+  for (ej_idx i = 0; i < ej_set_count(s->set); ++i) total += fb[i];
+  out[0] = (ej_counter){.name = "gradient correction fallbacks (particle-steps)", .value = total};
+  *n = 1;
+  return EJ_OK;
+}
+
 static ej_err sph_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass, ej_range r)
 {
   const sph_state *s = state;
   switch (pass) {
   case 0: EJ_TRY(sph_particle_pass(s, set, r)); break;
-  case 1: EJ_TRY(sph_pair_pass(s, set, nbr, r)); break;
-  default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: pass %d of 2", pass);
+  case 1: EJ_TRY(sph_corr_pass(s, set, nbr, r)); break;
+  case 2: EJ_TRY(sph_pair_pass(s, set, nbr, r)); break;
+  default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: pass %d of 3", pass);
   }
   return EJ_OK;
 }
@@ -440,11 +594,11 @@ static const ej_method_ops sph_ops = {
     .create = sph_create,
     .setup = sph_setup,
     .support = sph_support,
-    .n_passes = 2,
+    .n_passes = 3,
     .compute = sph_compute,
     .stable_dt = sph_stable_dt,
     .post_step = NULL,
-    .counters = NULL,
+    .counters = sph_counters,
     .destroy = sph_destroy,
 };
 
