@@ -272,7 +272,7 @@ static ej_err ej_sets_create(ej_sim *sim)
     ej_points pts = {0};
     EJ_TRY(ej_scene_set_points(sc, i, &pts));
     s->n = pts.n;
-    ej_err rc = ej_set_reserve(s, pts.n + pts.n / 4 + 64);
+    ej_err rc = ej_set_reserve(s, pts.n + pts.n / 16 + 64); /* ghosts grow it on demand */
     if (rc == EJ_OK) rc = ej_set_initial(sim, s, ss, &pts);
     ej_points_free(&pts);
     EJ_TRY(rc);
@@ -331,7 +331,8 @@ static ej_err ej_ghost_push(ej_sim *sim, ej_set *s, ej_idx src, const ej_xform *
 {
   int k = ej_xform_index(sim, t);
   EJ_ENSURE(k >= 0, EJ_ERR_UNSUPPORTED, "too many distinct ghost transforms (more than %d)", EJ_MAX_XFORMS);
-  if (s->n + s->n_ghost >= s->cap) EJ_TRY(ej_set_reserve(s, 2 * s->cap + 64));
+  /* grow by half: every field of the set is reallocated, so doubling would waste memory */
+  if (s->n + s->n_ghost >= s->cap) EJ_TRY(ej_set_reserve(s, s->cap + s->cap / 2 + 64));
   s->ghost_src[s->n_ghost] = src;
   s->ghost_xf[s->n_ghost] = (uint8_t)k;
   s->n_ghost++;
