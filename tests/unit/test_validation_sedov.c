@@ -1,23 +1,23 @@
 /* Short Sedov-Taylor blast (validation/sedov, coarse): octant [0, 0.48]^3 at spacing 0.03
- * (1728 particles), E = 0.125 J in the octant (1 J in full space), rho = 1, run to 0.03 s.
- * The shock radius (peak of the radially binned mean density) must lie within 5 % of
+ * (4096 particles), E = 0.125 J in the octant (1 J in full space), rho = 1, run to 0.05 s.
+ * The shock position (leading-edge mid-height of the radially binned density) must lie within 8 % of
  * R = xi0 (E t^2 / rho)^(1/5), xi0 = 1.0328 for gamma = 1.4 (Sedov 1959; Taylor 1950; computed
  * by validation/sedov/sedov_exact.py), and the energy balance within 0.5 % of the initial total. */
 #include "validation_common.h"
 
 #define SEDOV_DX 0.03
-#define SEDOV_T_END 0.03
+#define SEDOV_T_END 0.05
 #define SEDOV_XI0 1.03278
-/* Regression guard at a coarse spacing: measured +5.4 % here (the smeared front leads the exact
- * one by about a smoothing length); the 3 % accuracy claim is made at spacing 0.02 and 0.01 by
- * validation/sedov/check.py (make validate). */
+/* Regression guard at a coarse spacing (ten particles from the centre to the shock): measured
+ * -6.1 % here at t = 0.05 s. The 3 % accuracy claim is made at spacings 0.02 and 0.01 by
+ * validation/sedov/check.py (make validate), not by this test. */
 #define SEDOV_TOL_R 0.08
 #define SEDOV_TOL_E 0.005
 
 static const char sedov_scene[] =
     "ejecta: 1\n"
     "dimension: 3\n"
-    "time: {end: 0.03, cfl: 0.3}\n"
+    "time: {end: 0.05, cfl: 0.3}\n"
     "output: {file: sedov.h5, fields: [v, rho, p, e]}\n"
     "materials:\n"
     "  gas: {rho0: 1, eos: {model: ideal_gas, gamma: 1.4}}\n"
