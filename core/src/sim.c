@@ -589,17 +589,28 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   return EJ_OK;
 }
 
+/* Passes of a set's method: the configuration's count if the method reports one. */
+static int ej_set_passes(const ej_set *s)
+{
+  const ej_method_ops *m = s->mops;
+  if (m->struct_size >= offsetof(ej_method_ops, pass_count) + sizeof m->pass_count && m->pass_count) {
+    int n = m->pass_count(s->mstate);
+    if (n >= 1 && n <= m->n_passes) return n;
+  }
+  return m->n_passes;
+}
+
 static ej_err ej_compute_all(ej_sim *sim)
 {
   int max_pass = 0;
   for (int i = 0; i < sim->n_sets; ++i) {
     EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_zero_chunk, NULL));
-    if (sim->sets[i]->mops->n_passes > max_pass) max_pass = sim->sets[i]->mops->n_passes;
+    if (ej_set_passes(sim->sets[i]) > max_pass) max_pass = ej_set_passes(sim->sets[i]);
   }
   for (int pass = 0; pass < max_pass; ++pass) {
     for (int i = 0; i < sim->n_sets; ++i) {
       ej_set *s = sim->sets[i];
-      if (pass >= s->mops->n_passes) continue;
+      if (pass >= ej_set_passes(s)) continue;
       ej_set_update_ghosts(s, sim->xforms);
       ej_pass_ctx pc = {pass};
       EJ_TRY(ej_for_chunks(sim, s, ej_compute_chunk, &pc));

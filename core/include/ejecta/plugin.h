@@ -341,6 +341,9 @@ typedef struct ej_method_ops {
   /* Counters to report at the end of the run. May be NULL. */
   ej_err (*counters)(void *state, ej_counter *out, int max, int *n);
   void (*destroy)(void *state);
+  /* Passes this instance needs (1..n_passes), when it depends on the configuration: the core
+   * then calls passes 0..count-1 only, saving the ghost refreshes of unused ones. May be NULL. */
+  int (*pass_count)(const void *state);
 } ej_method_ops;
 
 /* ------------------------------------------------------------------ interactions */

@@ -548,9 +548,17 @@ static ej_err sph_counters(void *state, ej_counter *out, int max, int *n)
   return EJ_OK;
 }
 
+/* Without the correction the matrix pass is skipped: passes 0 and 2 become 0 and 1. */
+static int sph_pass_count(const void *state)
+{
+  const sph_state *s = state;
+  return s->cfg.correction ? 3 : 2;
+}
+
 static ej_err sph_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass, ej_range r)
 {
   const sph_state *s = state;
+  if (!s->cfg.correction && pass == 1) pass = 2;
   switch (pass) {
   case 0: EJ_TRY(sph_particle_pass(s, set, r)); break;
   case 1: EJ_TRY(sph_corr_pass(s, set, nbr, r)); break;
@@ -611,6 +619,7 @@ static const ej_method_ops sph_ops = {
     .stable_dt = sph_stable_dt,
     .post_step = NULL,
     .counters = sph_counters,
+    .pass_count = sph_pass_count,
     .destroy = sph_destroy,
 };
 
