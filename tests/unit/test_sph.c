@@ -214,7 +214,7 @@ START_TEST(test_params_and_ops)
                          "variable_h", "alpha", "beta", "eta", "rho_min"};
   for (int k = 0; k < 12; ++k) ck_assert_str_eq(f.mops->params[k].name, names[k]);
   ck_assert_ptr_null(f.mops->params[12].name);
-  ck_assert(*(int *)((char *)f.mcfg + find_param(f.mops->params, "continuity")->offset) == 1); /* mass */
+  ck_assert(*(int *)((char *)f.mcfg + find_param(f.mops->params, "continuity")->offset) == 0); /* volume */
   const ej_param *hf = find_param(f.mops->params, "h_factor");
   ck_assert(*(ej_real *)((char *)f.mcfg + hf->offset) == 0.0); /* automatic per dimension */
   ck_assert(hf->min == 0.0 && hf->max == 3.0);
