@@ -4,7 +4,7 @@ ASAN     ?= build-asan
 JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 SCENE    ?= examples/sedov_3d.yaml
 PYTHON   ?= /usr/bin/python3
-DEB_DEPS := cmake make gcc pkg-config libyaml-dev libhdf5-dev check python3-h5py python3-numpy python3-matplotlib
+DEB_DEPS := cmake make gcc pkg-config libyaml-dev libhdf5-dev check python3 python3-h5py python3-numpy python3-matplotlib
 
 .PHONY: all deps build run test test-sanitize validate bench schema clean
 

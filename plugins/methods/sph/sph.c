@@ -54,11 +54,13 @@ static const ej_param sph_params[] = {
                   "Smoothing length in particle spacings, h = h_factor (m/rho)^(1/dim); 0 picks the "
                   "value where the kernel's lattice sums are most accurate for the dimension "
                   "(cubic spline: 2.0 in 1D, exact; 1.5 in 2D; 1.3 in 3D, about 60-80 neighbours)."),
-    EJ_PARAM_REAL(sph_config, h_min, "1", 0.2, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN | EJ_PF_HAS_MAX,
-                  "Lower bound of a variable h as a multiple of the initial h (LS-DYNA HMIN)."),
-    EJ_PARAM_REAL(sph_config, h_max, "1", 2.0, 1.0, 0.0, EJ_PF_HAS_MIN,
-                  "Upper bound of a variable h as a multiple of the initial h (LS-DYNA HMAX): keeps "
-                  "the neighbour count bounded where the gas expands towards vacuum."),
+    EJ_PARAM_REAL(sph_config, h_min, "1", 0.0, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Lower bound of a variable h as a multiple of the initial h (LS-DYNA HMIN); 0 gives "
+                  "0.2 in 3D and the same volume ratio in 1D and 2D, 0.2^(3/dim)."),
+    EJ_PARAM_REAL(sph_config, h_max, "1", 0.0, 0.0, 0.0, EJ_PF_HAS_MIN,
+                  "Upper bound of a variable h as a multiple of the initial h (LS-DYNA HMAX): keeps the "
+                  "neighbour count bounded where the gas expands towards vacuum; 0 gives 2 in 3D and the "
+                  "same volume ratio in 1D and 2D, 2^(3/dim)."),
     EJ_PARAM_BOOL(sph_config, variable_h, 1,
                   "Adapt h to the current density (true) or keep h = h_factor vol0^(1/dim)."),
     EJ_PARAM_REAL(sph_config, alpha, "1", 1.0, 0.0, 0.0, EJ_PF_HAS_MIN,
@@ -153,6 +155,12 @@ static ej_err sph_create(const void *config, ej_set *set, const ej_model *model,
     const bool cubic = cfg->kernel == SPH_KERNEL_CUBIC_SPLINE;
     s->cfg.h_factor = dim == 1 ? 2.0 : dim == 2 ? 1.5 : (cubic ? 1.3 : 1.5);
   }
+  /* LS-DYNA's defaults bound the volume of a particle's support to [0.2^3, 2^3] of its
+   * initial value; the same volume ratios in 1D and 2D are wider in h. */
+  if (s->cfg.h_min <= 0.0) s->cfg.h_min = pow(0.2, 3.0 / dim);
+  if (s->cfg.h_max <= 0.0) s->cfg.h_max = pow(2.0, 3.0 / dim);
+  EJ_ENSURE(s->cfg.h_max >= 1.0 && s->cfg.h_min <= 1.0, EJ_ERR_ARG, "set '%s': need h_min <= 1 <= h_max",
+            ej_set_name(set));
   EJ_ENSURE(s->cfg.h_factor >= 0.5, EJ_ERR_ARG, "set '%s': h_factor %g is below 0.5", ej_set_name(set),
             s->cfg.h_factor);
   s->dim = dim;
@@ -490,7 +498,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
        * truncated or sparse (free surface, a disordered shock front) and the sum says nothing
        * about the bias: clamp it rather than amplify noise into the density. */
       ej_real fac = -(ej_real)dim / (volume_form ? norm : norm / rhoi);
-      fac = fac < 0.8 ? 0.8 : fac > 1.25 ? 1.25 : fac;
+      fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
       drho *= fac;
     }
     rho_dot[i] += volume_form ? rhoi * drho : drho;
