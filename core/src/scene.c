@@ -41,7 +41,7 @@ static const ej_param ej_time_params[] = {
     {0}};
 
 static const ej_param ej_neigh_params[] = {
-    EJ_PARAM_REAL(ej_neigh_cfg, skin, "1", 0.25, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+    EJ_PARAM_REAL(ej_neigh_cfg, skin, "1", 0.15, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Verlet skin as a fraction of the search radius."),
     {0}};
 

@@ -197,7 +197,7 @@ START_TEST(test_valid_minimal_2d_csv)
                               "  gas: {method: sph, material: air, file: particles.csv, spacing: 0.1,\n"
                               "        velocity: [1, 2]}\n");
   ck_assert_int_eq(sc->dimension, 2);
-  ck_assert(sc->cfl == 0.3 && sc->skin == 0.25);
+  ck_assert(sc->cfl == 0.3 && sc->skin == 0.15);
   ck_assert_str_eq(sc->output_file, "results/run.h5");
   const ej_scene_set *g = &sc->sets[0];
   ck_assert_ptr_null(g->shape);
