@@ -163,18 +163,6 @@ static int cmd_plugins(void)
   return 0;
 }
 
-static const char *ej_field_kind_name(ej_field_kind k)
-{
-  switch (k) {
-  case EJ_SCALAR: return "scalar";
-  case EJ_VEC3: return "vec3";
-  case EJ_SYM6: return "sym6";
-  case EJ_TENSOR9: return "tensor9";
-  case EJ_INT: return "int";
-  }
-  return "?";
-}
-
 static int cmd_describe(int argc, char **argv)
 {
   if (argc < 1) return ej_bad_usage("%s", "describe needs a plugin name (see 'ejecta plugins')");

@@ -349,6 +349,8 @@ void ej_set_destroy(ej_set *s);
 /* Adds a field (idempotent for an identical declaration; a conflicting kind is an error). */
 ej_err ej_set_add_field(ej_set *s, const ej_field_decl *d, int *index);
 int ej_set_find_field(const ej_set *s, const char *name);
+/* "scalar", "vec3", "sym6", "tensor9" or "int" (output attributes, describe). */
+const char *ej_field_kind_name(ej_field_kind k);
 /* Sets capacity for owned + ghost particles (reallocates every field). */
 ej_err ej_set_reserve(ej_set *s, ej_idx cap);
 /* Reorders owned particles: new i takes old perm[i], for every field. */

@@ -160,18 +160,6 @@ static ej_err ej_h5_attr_string(hid_t loc, const char *name, const char *s)
   return rc;
 }
 
-static const char *ej_kind_word(ej_field_kind k)
-{
-  switch (k) {
-  case EJ_SCALAR: return "scalar";
-  case EJ_VEC3: return "vec3";
-  case EJ_SYM6: return "sym6";
-  case EJ_TENSOR9: return "tensor9";
-  case EJ_INT: return "int";
-  }
-  return "unknown";
-}
-
 static int ej_kind_ncomp(ej_field_kind k) { return k == EJ_INT ? 1 : (int)k; }
 
 /* The first n particles of field f as dataset f->name in loc: [n] or [n][ncomp]. */
@@ -192,7 +180,7 @@ static ej_err ej_h5_put_field(hid_t loc, const ej_field *f, ej_idx n)
     goto fail;
   /* Rate fields are declared without a unit: "" says unknown, where "1" would say none. */
   EJ_TRY_GOTO(rc, ej_h5_attr_string(dset, "unit", f->unit ? f->unit : ""), close_all);
-  EJ_TRY_GOTO(rc, ej_h5_attr_string(dset, "kind", ej_kind_word(f->kind)), close_all);
+  EJ_TRY_GOTO(rc, ej_h5_attr_string(dset, "kind", ej_field_kind_name(f->kind)), close_all);
   if (f->kind == EJ_SYM6) EJ_TRY_GOTO(rc, ej_h5_attr_string(dset, "components", "xx yy zz xy yz zx"), close_all);
   goto close_all;
 fail:
@@ -785,7 +773,7 @@ static ej_err ej_cp_field(const ej_cp_reader *r, hid_t g, ej_set *s, ej_field *f
   ej_cp_kind(dset, kind, sizeof kind);
   bool is_int = f->kind == EJ_INT;
   if (dims[0] != (hsize_t)s->n || dims[1] != (hsize_t)ncomp || rank != (ncomp == 1 ? 1 : 2) ||
-      H5Tget_class(type) != (is_int ? H5T_INTEGER : H5T_FLOAT) || strcmp(kind, ej_kind_word(f->kind)) != 0)
+      H5Tget_class(type) != (is_int ? H5T_INTEGER : H5T_FLOAT) || strcmp(kind, ej_field_kind_name(f->kind)) != 0)
     goto mismatch;
   if (s->n > 0 &&
       H5Dread(dset, is_int ? H5T_NATIVE_INT32 : H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, f->data) < 0)
@@ -796,7 +784,7 @@ mismatch:
                       "cannot restart from '%s': field '%s' of set '%s' is %s[%llu x %llu] in the checkpoint, "
                       "expected %s[%ld x %d]",
                       r->path, f->name, s->name, kind[0] ? kind : "?", (unsigned long long)dims[0],
-                      (unsigned long long)dims[1], ej_kind_word(f->kind), (long)s->n, ncomp);
+                      (unsigned long long)dims[1], ej_field_kind_name(f->kind), (long)s->n, ncomp);
   goto close_all;
 unreadable:
   H5Eclear2(H5E_DEFAULT);

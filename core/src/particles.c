@@ -5,6 +5,18 @@
 
 #include "core_impl.h"
 
+const char *ej_field_kind_name(ej_field_kind k)
+{
+  switch (k) {
+  case EJ_SCALAR: return "scalar";
+  case EJ_VEC3: return "vec3";
+  case EJ_SYM6: return "sym6";
+  case EJ_TENSOR9: return "tensor9";
+  case EJ_INT: return "int";
+  }
+  return "unknown";
+}
+
 static int ej_kind_ncomp(ej_field_kind k) { return k == EJ_INT ? 1 : (int)k; }
 static size_t ej_kind_bytes(ej_field_kind k) { return k == EJ_INT ? sizeof(int32_t) : sizeof(ej_real); }
 

@@ -270,7 +270,7 @@ static ej_err ej_parse_eos(ej_loader *L, ej_scene_material *m, const ej_node *eo
   const ej_node *model = ej_node_get(eos, "model");
   if (!model)
     return ej_error_input(&eos->loc, "%s needs 'model' (the equation of state, e.g. ideal_gas)", what);
-  const char *name;
+  const char *name = NULL;
   EJ_TRY(ej_expect_word(model, "eos model", &name));
   const void *ops;
   EJ_TRY(ej_registry_require(L->reg, EJ_KIND_EOS, name, &model->loc, &ops));
@@ -297,7 +297,7 @@ static ej_err ej_parse_material(ej_loader *L, int i, const ej_node *mats)
   const ej_node *model = ej_node_get(node, "model"), *eos = ej_node_get(node, "eos");
   const ej_param *strength = NULL;
   if (model) {
-    const char *name;
+    const char *name = NULL;
     EJ_TRY(ej_expect_word(model, "material model", &name));
     const void *ops;
     EJ_TRY(ej_registry_require(L->reg, EJ_KIND_MATERIAL, name, &model->loc, &ops));
@@ -383,7 +383,7 @@ static ej_err ej_parse_refine(ej_loader *L, ej_scene_set *s, const ej_node *n)
 
 static ej_err ej_resolve_file(ej_loader *L, ej_scene_set *s, const ej_node *f)
 {
-  const char *name;
+  const char *name = NULL;
   EJ_TRY(ej_expect_word(f, "file", &name));
   size_t nd = name[0] == '/' ? 0 : strlen(L->dir), nf = strlen(name);
   s->file = ej_malloc(nd + nf + 1);
@@ -405,7 +405,7 @@ static ej_err ej_parse_set(ej_loader *L, int i)
 
   const ej_node *method = ej_node_get(node, "method");
   if (!method) return ej_error_input(&s->loc, "set '%s' needs 'method' (the method plugin, e.g. sph)", s->name);
-  const char *mname;
+  const char *mname = NULL;
   EJ_TRY(ej_expect_word(method, "method", &mname));
   const void *ops;
   EJ_TRY(ej_registry_require(L->reg, EJ_KIND_METHOD, mname, &method->loc, &ops));
@@ -430,7 +430,7 @@ static ej_err ej_parse_set(ej_loader *L, int i)
 
   const ej_node *mat = ej_node_get(node, "material");
   if (!mat) return ej_error_input(&s->loc, "set '%s' needs 'material' (a key of materials)", s->name);
-  const char *matname;
+  const char *matname = NULL;
   EJ_TRY(ej_expect_word(mat, "material", &matname));
   s->material = ej_index_of(L->mat_names, sc->n_materials, matname);
   if (s->material < 0) {
@@ -483,7 +483,7 @@ static ej_err ej_parse_set(ej_loader *L, int i)
 
 static ej_err ej_set_ref(ej_loader *L, const ej_node *n, const char *what, int *index)
 {
-  const char *name;
+  const char *name = NULL;
   EJ_TRY(ej_expect_word(n, what, &name));
   *index = ej_index_of(L->set_names, L->sc->n_sets, name);
   if (*index >= 0) return EJ_OK;
@@ -498,7 +498,7 @@ static ej_err ej_parse_interaction(ej_loader *L, ej_scene_interaction *it, const
   it->loc = n->loc;
   const ej_node *model = ej_node_get(n, "model"), *sets = ej_node_get(n, "sets");
   if (!model) return ej_error_input(&n->loc, "interaction needs 'model' (the interaction plugin, e.g. pd_sph)");
-  const char *name;
+  const char *name = NULL;
   EJ_TRY(ej_expect_word(model, "interaction model", &name));
   const void *ops;
   EJ_TRY(ej_registry_require(L->reg, EJ_KIND_INTERACTION, name, &model->loc, &ops));
@@ -665,7 +665,7 @@ static ej_err ej_parse_output(ej_loader *L, const ej_node *out)
     sc->output_field_locs = ej_calloc((size_t)fields->n, sizeof *sc->output_field_locs);
     EJ_ENSURE(sc->output_fields && sc->output_field_locs, EJ_ERR_MEM, "out of memory");
     for (int k = 0; k < fields->n; ++k) {
-      const char *name;
+      const char *name = NULL;
       EJ_TRY(ej_expect_word(fields->items[k], "an output field", &name));
       sc->output_fields[k] = ej_strdup(name);
       EJ_ENSURE(sc->output_fields[k], EJ_ERR_MEM, "out of memory");
