@@ -50,10 +50,18 @@ static double ej_wall(void)
 
 typedef ej_err (*ej_chunk_fn)(ej_sim *sim, ej_set *s, void *ctx, int64_t chunk, ej_range r);
 
+static int64_t ej_chunk_count(const ej_set *s) { return ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK; }
+
+static ej_range ej_chunk_range(const ej_set *s, int64_t c)
+{
+  const int64_t end = (c + 1) * EJ_CHUNK;
+  return (ej_range){(ej_idx)(c * EJ_CHUNK), (ej_idx)(end < s->n ? end : s->n)};
+}
+
 /* Runs fn over the owned particles of s in chunks; the first error (lowest chunk) wins. */
 static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
 {
-  const int64_t nch = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK;
+  const int64_t nch = ej_chunk_count(s);
   int64_t failed_chunk = INT64_MAX;
   ej_error_frame frames[EJ_ERROR_MAX_FRAMES];
   int nframes = 0;
@@ -63,8 +71,7 @@ static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
 #pragma omp atomic read
     seen = failed_chunk;
     if (seen < c) continue;
-    ej_range r = {(ej_idx)(c * EJ_CHUNK), (ej_idx)((c + 1) * EJ_CHUNK < s->n ? (c + 1) * EJ_CHUNK : s->n)};
-    ej_err rc = fn(sim, s, ctx, c, r);
+    ej_err rc = fn(sim, s, ctx, c, ej_chunk_range(s, c));
     if (rc != EJ_OK) {
 #pragma omp critical(ej_chunk_error)
       {
@@ -86,7 +93,7 @@ static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
 
 static ej_err ej_sim_scratch(ej_sim *sim, const ej_set *s)
 {
-  int64_t need = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK * EJ_NRED + EJ_NRED;
+  int64_t need = ej_chunk_count(s) * EJ_NRED + EJ_NRED;
   if (need <= sim->chunk_scratch_cap) return EJ_OK;
   ej_real *p = ej_realloc(sim->chunk_scratch, (size_t)need * sizeof *p);
   EJ_ENSURE(p, EJ_ERR_MEM, "out of memory");
@@ -605,7 +612,8 @@ static ej_err ej_compute_all(ej_sim *sim)
   int max_pass = 0;
   for (int i = 0; i < sim->n_sets; ++i) {
     EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_zero_chunk, NULL));
-    if (ej_set_passes(sim->sets[i]) > max_pass) max_pass = ej_set_passes(sim->sets[i]);
+    const int np = ej_set_passes(sim->sets[i]);
+    if (np > max_pass) max_pass = np;
   }
   for (int pass = 0; pass < max_pass; ++pass) {
     for (int i = 0; i < sim->n_sets; ++i) {
@@ -646,7 +654,7 @@ static ej_err ej_next_dt(ej_sim *sim)
       ej_set *s = sim->sets[i];
       EJ_TRY(ej_sim_scratch(sim, s));
       EJ_TRY(ej_for_chunks(sim, s, ej_dt_chunk, NULL));
-      const int64_t nch = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK;
+      const int64_t nch = ej_chunk_count(s);
       for (int64_t c = 0; c < nch; ++c) dt = sim->chunk_scratch[c] < dt ? sim->chunk_scratch[c] : dt;
     }
     for (int k = 0; k < sim->n_inter; ++k)
@@ -708,6 +716,12 @@ static ej_err ej_kick_drift_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, 
     }
   }
   return EJ_OK;
+}
+
+static ej_err ej_post_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)sim, (void)ctx, (void)c;
+  return s->mops->post_step(s->mstate, s, r);
 }
 
 static ej_err ej_kick_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
@@ -786,7 +800,7 @@ static ej_err ej_energy_update(ej_sim *sim, bool with_work)
   for (int i = 0; i < sim->n_sets; ++i) {
     ej_set *s = sim->sets[i];
     EJ_TRY(ej_sim_scratch(sim, s));
-    const int64_t nch = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK;
+    const int64_t nch = ej_chunk_count(s);
     if (with_work) {
       EJ_TRY(ej_for_chunks(sim, s, ej_work_chunk, NULL));
       for (int64_t c = 0; c < nch; ++c) work += sim->chunk_scratch[c * EJ_NRED];
@@ -838,7 +852,7 @@ static ej_err ej_watchdog(ej_sim *sim)
     ej_set *s = sim->sets[i];
     EJ_TRY(ej_sim_scratch(sim, s));
     EJ_TRY(ej_for_chunks(sim, s, ej_watch_chunk, NULL));
-    const int64_t nch = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK;
+    const int64_t nch = ej_chunk_count(s);
     for (int64_t c = 0; c < nch; ++c) {
       if (sim->chunk_scratch[c * EJ_NRED] < 0) continue;
       ej_idx bad = (ej_idx)sim->chunk_scratch[c * EJ_NRED];
@@ -978,15 +992,8 @@ ej_err ej_sim_run(ej_sim *sim)
     if (due) EJ_TRY_GOTO(rc, ej_rebuild(sim), out);
     EJ_TRY_GOTO(rc, ej_compute_all(sim), out);
     for (int i = 0; i < sim->n_sets; ++i) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_chunk, NULL), out);
-    for (int i = 0; i < sim->n_sets; ++i) {
-      ej_set *s = sim->sets[i];
-      if (!s->mops->post_step) continue;
-      const int64_t nch = ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK;
-      for (int64_t c = 0; c < nch; ++c) {
-        ej_range r = {(ej_idx)(c * EJ_CHUNK), (ej_idx)((c + 1) * EJ_CHUNK < s->n ? (c + 1) * EJ_CHUNK : s->n)};
-        EJ_TRY_GOTO(rc, s->mops->post_step(s->mstate, s, r), out);
-      }
-    }
+    for (int i = 0; i < sim->n_sets; ++i)
+      if (sim->sets[i]->mops->post_step) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_post_chunk, NULL), out);
     EJ_TRY_GOTO(rc, ej_energy_update(sim, true), out);
     EJ_TRY_GOTO(rc, ej_watchdog(sim), out);
     const ej_real dt_used = sim->dt;
