@@ -280,6 +280,7 @@ typedef struct ej_ops_head {
 /* ================================================================== particle sets */
 
 #define EJ_MAX_FIELDS 64
+#define EJ_MAX_HIST 32
 #define EJ_FIELD_NAME_LEN 32
 
 typedef struct ej_field {
@@ -314,6 +315,10 @@ struct ej_set {
   ej_field fields[EJ_MAX_FIELDS];
   int f_x, f_v, f_a, f_m, f_vol0, f_id, f_xb, f_rb, f_x0; /* base field indices (-1 absent) */
   ej_real spacing_min;
+  const ej_real *t, *dt; /* the simulation's clock (NULL outside a run) */
+  int n_hist;
+  int f_hist[EJ_MAX_HIST]; /* fields of the strength model's history variables */
+  bool in_interaction;     /* a two-set interaction lists it: x_build kept current */
   /* method */
   const ej_method_ops *mops;
   const void *mconfig;
@@ -337,6 +342,7 @@ struct ej_model {
 };
 struct ej_eos {
   const ej_eos_ops *ops;
+  const void *config;
   void *state;
 };
 struct ej_material {
@@ -398,7 +404,8 @@ void ej_comm_sum(ej_real *v, int n);
 
 typedef struct ej_energy {
   ej_real kinetic, internal, viscous, plastic, hourglass;
-  ej_real external; /* accumulated external work */
+  ej_real external; /* accumulated external work: gravity + plugins' WORK - DISSIPATED series */
+  ej_real work_gravity; /* accumulated work of gravity */
   ej_real total0;   /* kinetic + internal at t = 0 */
   ej_real balance;  /* kinetic + internal - total0 - external */
   ej_real momentum[3];
@@ -408,9 +415,19 @@ typedef struct ej_inter {
   const ej_interaction_ops *ops;
   const void *config;
   void *state;
-  ej_set *a, *b;
-  ej_nbrlist *list;
+  ej_set *a, *b;     /* b NULL for a one-set interaction */
+  ej_nbrlist *list;  /* a -> b (NULL for one set) */
+  ej_nbrlist *list_ba; /* b -> a when ops->both_ways */
 } ej_inter;
+
+/* Per-step series reported by plugins, in a fixed order decided on the first step. */
+#define EJ_MAX_REPORTS 256
+typedef struct ej_reports {
+  int n;
+  char names[EJ_MAX_REPORTS][96]; /* "<set or interaction>/<name>" */
+  ej_real values[EJ_MAX_REPORTS];
+  bool fixed; /* names decided */
+} ej_reports;
 
 typedef struct ej_output ej_output;
 
@@ -431,6 +448,7 @@ struct ej_sim {
   int64_t n_rebuilds;
   /* diagnostics */
   ej_energy energy;
+  ej_reports reports;
   /* output */
   ej_output *out;
   char *out_path;

@@ -28,7 +28,7 @@
 #include "core_impl.h"
 
 #define EJ_SERIES_ROWS 1024
-#define EJ_CHECKPOINT_FORMAT 1
+#define EJ_CHECKPOINT_FORMAT 2
 
 enum { EJ_SERIES_COLS = 13 };
 static const char *const ej_series_names[EJ_SERIES_COLS] = {
@@ -41,7 +41,8 @@ struct ej_output {
   char *partial; /* path + ".partial": the name while the run is going */
   char *xdmf;    /* sidecar */
   const char *h5_name; /* basename of path, inside path: what the XDMF references */
-  hid_t series[EJ_SERIES_COLS];
+  hid_t series[EJ_SERIES_COLS + EJ_MAX_REPORTS]; /* energy columns, then plugins' reports */
+  int n_cols;
   /* Column-major [EJ_SERIES_COLS][EJ_SERIES_ROWS] so each column flushes as one block. */
   double *rows;
   int n_rows;
@@ -375,7 +376,8 @@ ej_err ej_output_open(ej_output **outp, const ej_sim *sim, const char *path)
   ej_output *out = ej_calloc(1, sizeof *out);
   EJ_ENSURE(out, EJ_ERR_MEM, "out of memory");
   out->file = -1;
-  for (int c = 0; c < EJ_SERIES_COLS; ++c) out->series[c] = -1;
+  for (int c = 0; c < EJ_SERIES_COLS + EJ_MAX_REPORTS; ++c) out->series[c] = -1;
+  out->n_cols = EJ_SERIES_COLS;
   out->path = ej_strdup(path);
   out->partial = ej_concat(path, ".partial");
   out->xdmf = ej_xdmf_name(path);
@@ -418,7 +420,7 @@ ej_err ej_output_open(ej_output **outp, const ej_sim *sim, const char *path)
   return EJ_OK;
 
 close_file:
-  for (int c = 0; c < EJ_SERIES_COLS; ++c)
+  for (int c = 0; c < EJ_SERIES_COLS + EJ_MAX_REPORTS; ++c)
     if (out->series[c] >= 0) H5Dclose(out->series[c]);
   H5Fclose(out->file);
   remove(out->partial);
@@ -538,7 +540,7 @@ static ej_err ej_output_flush_series(ej_output *out)
   hsize_t start = out->n_series, count = (hsize_t)out->n_rows, total = start + count;
   hid_t mem = H5Screate_simple(1, &count, NULL);
   if (mem < 0) return EJ_H5_FAIL(out->file, "series");
-  for (int c = 0; c < EJ_SERIES_COLS; ++c) {
+  for (int c = 0; c < out->n_cols; ++c) {
     hid_t ds = out->series[c], space = -1;
     if (H5Dset_extent(ds, &total) < 0 || (space = H5Dget_space(ds)) < 0 ||
         H5Sselect_hyperslab(space, H5S_SELECT_SET, &start, NULL, &count, NULL) < 0 ||
@@ -556,9 +558,47 @@ static ej_err ej_output_flush_series(ej_output *out)
   return rc;
 }
 
+/* /series/<owner>/<name> for the plugins' reports, made on the first row (the names are
+ * known once the plugins have reported). */
+static ej_err ej_output_create_reports(ej_output *out, const ej_reports *R)
+{
+  double *rows = ej_realloc(out->rows, sizeof(double) * (size_t)(EJ_SERIES_COLS + R->n) * EJ_SERIES_ROWS);
+  EJ_ENSURE(rows, EJ_ERR_MEM, "out of memory");
+  out->rows = rows;
+  ej_err rc = EJ_OK;
+  hsize_t dims = 0, maxdims = H5S_UNLIMITED, chunk = EJ_SERIES_ROWS;
+  hid_t space = H5Screate_simple(1, &dims, &maxdims), dcpl = H5Pcreate(H5P_DATASET_CREATE),
+        lcpl = H5Pcreate(H5P_LINK_CREATE);
+  if (space < 0 || dcpl < 0 || lcpl < 0 || H5Pset_chunk(dcpl, 1, &chunk) < 0 ||
+      H5Pset_create_intermediate_group(lcpl, 1) < 0) {
+    rc = EJ_H5_FAIL(out->file, "series");
+    goto close;
+  }
+  for (int k = 0; k < R->n; ++k) {
+    char path[sizeof R->names[0] + 16];
+    snprintf(path, sizeof path, "/series/%s", R->names[k]);
+    hid_t ds = H5Dcreate2(out->file, path, H5T_IEEE_F64LE, space, lcpl, dcpl, H5P_DEFAULT);
+    if (ds < 0) {
+      rc = EJ_H5_FAIL(out->file, path);
+      goto close;
+    }
+    out->series[EJ_SERIES_COLS + k] = ds;
+    out->n_cols = EJ_SERIES_COLS + k + 1;
+  }
+close:
+  if (lcpl >= 0) H5Pclose(lcpl);
+  if (dcpl >= 0) H5Pclose(dcpl);
+  if (space >= 0) H5Sclose(space);
+  return rc;
+}
+
 ej_err ej_output_series(ej_output *out, const ej_sim *sim)
 {
   EJ_ENSURE(out && sim, EJ_ERR_ARG, "ej_output_series: null argument");
+  if (sim->reports.n > 0 && out->n_cols == EJ_SERIES_COLS) {
+    EJ_ENSURE(out->n_rows == 0 && out->n_series == 0, EJ_ERR_INTERNAL, "reports appeared after the first series row");
+    EJ_TRY(ej_output_create_reports(out, &sim->reports));
+  }
   /* A previous flush failed: it already reported, and retrying keeps the rows. */
   if (out->n_rows == EJ_SERIES_ROWS) EJ_TRY(ej_output_flush_series(out));
   const ej_energy *e = &sim->energy;
@@ -566,6 +606,8 @@ ej_err ej_output_series(ej_output *out, const ej_sim *sim)
                                       e->viscous,  e->plastic,        e->hourglass,  e->external,   e->balance,
                                       e->momentum[0], e->momentum[1], e->momentum[2]};
   for (int c = 0; c < EJ_SERIES_COLS; ++c) out->rows[(size_t)c * EJ_SERIES_ROWS + out->n_rows] = row[c];
+  for (int c = EJ_SERIES_COLS; c < out->n_cols; ++c)
+    out->rows[(size_t)c * EJ_SERIES_ROWS + out->n_rows] = sim->reports.values[c - EJ_SERIES_COLS];
   if (++out->n_rows == EJ_SERIES_ROWS) EJ_TRY(ej_output_flush_series(out));
   return EJ_OK;
 }
@@ -632,7 +674,7 @@ ej_err ej_output_checkpoint(ej_output *out, const ej_sim *sim)
   EJ_TRY_GOTO(rc, ej_h5_attr_int64(cp, "frame", sim->frame), close_cp);
   EJ_TRY_GOTO(rc, ej_h5_attr_double(cp, "next_output", sim->next_output), close_cp);
   EJ_TRY_GOTO(rc, ej_h5_attr_double(cp, "next_checkpoint", sim->next_checkpoint), close_cp);
-  EJ_TRY_GOTO(rc, ej_h5_attr_double(cp, "energy_external", sim->energy.external), close_cp);
+  EJ_TRY_GOTO(rc, ej_h5_attr_double(cp, "energy_work_gravity", sim->energy.work_gravity), close_cp);
   EJ_TRY_GOTO(rc, ej_h5_attr_double(cp, "energy_total0", sim->energy.total0), close_cp);
   for (int k = 0; k < sim->n_sets; ++k) EJ_TRY_GOTO(rc, ej_checkpoint_set(cp, sim->sets[k]), close_cp);
 close_cp:
@@ -692,7 +734,7 @@ ej_err ej_output_close(ej_output *out, bool success)
   if (!out) return EJ_OK;
   ej_err rc = EJ_OK;
   if (success) rc = ej_output_flush_series(out);
-  for (int c = 0; c < EJ_SERIES_COLS; ++c)
+  for (int c = 0; c < EJ_SERIES_COLS + EJ_MAX_REPORTS; ++c)
     if (out->series[c] >= 0) H5Dclose(out->series[c]);
   if (H5Fclose(out->file) < 0 && rc == EJ_OK && success) {
     ej_h5_reason why;
@@ -899,7 +941,7 @@ ej_err ej_checkpoint_read(const char *path, ej_sim *sim)
   EJ_TRY_GOTO(rc, ej_cp_attr(&r, cp, "frame", H5T_NATIVE_INT64, &frame), close_cp);
   EJ_TRY_GOTO(rc, ej_cp_attr(&r, cp, "next_output", H5T_NATIVE_DOUBLE, &next_output), close_cp);
   EJ_TRY_GOTO(rc, ej_cp_attr(&r, cp, "next_checkpoint", H5T_NATIVE_DOUBLE, &next_checkpoint), close_cp);
-  EJ_TRY_GOTO(rc, ej_cp_attr(&r, cp, "energy_external", H5T_NATIVE_DOUBLE, &external), close_cp);
+  EJ_TRY_GOTO(rc, ej_cp_attr(&r, cp, "energy_work_gravity", H5T_NATIVE_DOUBLE, &external), close_cp);
   EJ_TRY_GOTO(rc, ej_cp_attr(&r, cp, "energy_total0", H5T_NATIVE_DOUBLE, &total0), close_cp);
   for (int k = 0; k < sim->n_sets; ++k) EJ_TRY_GOTO(rc, ej_cp_set(&r, cp, sim->sets[k]), close_cp);
   sim->t = t;
@@ -909,7 +951,7 @@ ej_err ej_checkpoint_read(const char *path, ej_sim *sim)
   sim->frame = frame;
   sim->next_output = next_output;
   sim->next_checkpoint = next_checkpoint;
-  sim->energy.external = external;
+  sim->energy.work_gravity = external;
   sim->energy.total0 = total0;
 close_cp:
   H5Gclose(cp);

@@ -295,4 +295,33 @@ ej_err ej_eos_evaluate(const ej_eos *eos, ej_idx n, const ej_real *rho, const ej
   return eos->ops->evaluate(eos->state, n, rho, e, p, c);
 }
 
+ej_err ej_eos_evaluate_set(const ej_eos *eos, ej_set *set, ej_range r, const ej_real *rho, const ej_real *e,
+                           ej_real *p, ej_real *c)
+{
+  const ej_eos_ops *o = eos->ops;
+  if (o->struct_size >= offsetof(ej_eos_ops, evaluate_set) + sizeof o->evaluate_set && o->evaluate_set)
+    return o->evaluate_set(eos->state, set, r, rho, e, p, c);
+  return o->evaluate(eos->state, r.end - r.begin, rho, e, p, c);
+}
+
 ej_err ej_material_update(const ej_material *mat, ej_mat_batch *b) { return mat->ops->update(mat->state, b); }
+
+ej_err ej_material_moduli(const ej_material *mat, ej_real *K, ej_real *G)
+{
+  const ej_material_ops *o = mat->ops;
+  EJ_ENSURE(o->struct_size >= offsetof(ej_material_ops, moduli) + sizeof o->moduli && o->moduli, EJ_ERR_UNSUPPORTED,
+            "material '%s' does not report its moduli (built against ABI 1.0)", o->name);
+  return o->moduli(mat->state, K, G);
+}
+
+int ej_material_n_hist(const ej_material *mat) { return mat ? mat->ops->n_hist : 0; }
+
+ej_real ej_set_time(const ej_set *s) { return s->t ? *s->t : 0; }
+ej_real ej_set_dt(const ej_set *s) { return s->dt ? *s->dt : 0; }
+
+int ej_set_hist(const ej_set *s, ej_real **hist, int max)
+{
+  int n = s->n_hist < max ? s->n_hist : max;
+  for (int k = 0; k < n; ++k) hist[k] = s->fields[s->f_hist[k]].data;
+  return s->n_hist;
+}

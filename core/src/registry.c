@@ -216,6 +216,9 @@ static ej_err ej_validate_ops(ej_kind k, const void *ops)
     if (!m->create) missing = "create";
     else if (!m->update) missing = "update";
     else if (!m->destroy) missing = "destroy";
+    else if (m->struct_size >= EJ_MEMBER_END(ej_material_ops, moduli) && !m->moduli) missing = "moduli";
+    EJ_ENSURE(m->n_hist >= 0 && m->n_hist <= EJ_MAX_HIST, EJ_ERR_PLUGIN, "%s: at most %d history variables", owner,
+              EJ_MAX_HIST);
     EJ_ENSURE(m->n_hist >= 0 && (m->n_hist == 0 || m->hist_names), EJ_ERR_PLUGIN, "%s: history variables need names",
               owner);
     break;

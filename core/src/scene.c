@@ -509,11 +509,12 @@ static ej_err ej_parse_interaction(ej_loader *L, ej_scene_interaction *it, const
   snprintf(what, sizeof what, "interaction '%s'", name);
   static const char *const skip[] = {"model", "sets", NULL};
   EJ_TRY(ej_params_apply(it->ops->params, it->config, n, what, skip, it->ops->check_config));
-  if (!sets) return ej_error_input(&n->loc, "%s needs 'sets: [a, b]'", what);
-  if (sets->type != EJ_NODE_SEQ || sets->n != 2)
-    return ej_error_input(&sets->loc, "%s: 'sets' must be a list of two set names", what);
+  if (!sets) return ej_error_input(&n->loc, "%s needs 'sets: [a, b]' (or '[a]' for a one-set interaction)", what);
+  if (sets->type != EJ_NODE_SEQ || sets->n < 1 || sets->n > 2)
+    return ej_error_input(&sets->loc, "%s: 'sets' must be a list of one or two set names", what);
   EJ_TRY(ej_set_ref(L, sets->items[0], "interaction", &it->set_a));
-  EJ_TRY(ej_set_ref(L, sets->items[1], "interaction", &it->set_b));
+  it->set_b = -1;
+  if (sets->n == 2) EJ_TRY(ej_set_ref(L, sets->items[1], "interaction", &it->set_b));
   return EJ_OK;
 }
 
@@ -1090,9 +1091,9 @@ static ej_err ej_schema_interactions(ej_buf *b, ej_registry *reg)
   EJ_TRY(ej_sorted_ops(reg, EJ_KIND_INTERACTION, &it, &n));
   ej_err rc = EJ_OK;
   static const char *const fixed[] = {"model", "sets", NULL};
-  EJ_TRY_GOTO(rc, ej_buf_printf(b, "\"interaction\":{\"description\":\"An interaction between two sets.\","
+  EJ_TRY_GOTO(rc, ej_buf_printf(b, "\"interaction\":{\"description\":\"An interaction between two sets, or acting on one set.\","
                                    "\"type\":\"object\",\"required\":[\"model\",\"sets\"],\"properties\":{\"sets\":"
-                                   "{\"type\":\"array\",\"minItems\":2,\"maxItems\":2,\"items\":{\"type\":\"string\"}}}"),
+                                   "{\"type\":\"array\",\"minItems\":1,\"maxItems\":2,\"items\":{\"type\":\"string\"}}}"),
               out_free);
   if (n) {
     EJ_TRY_GOTO(rc, ej_buf_printf(b, ",\"oneOf\":["), out_free);

@@ -39,6 +39,10 @@ ej_err ej_decl_probe(const ej_method_ops *m, const void *config, ej_set *s)
   return m->declare(config, s->dim, &d);
 }
 
+/* An optional op appended after ABI 1.0: present in the table and not NULL. */
+#define EJ_HAS_OP(ops, type, member)                                                                    \
+  ((ops)->struct_size >= offsetof(type, member) + sizeof(((type *)0)->member) && (ops)->member)
+
 static double ej_wall(void)
 {
   struct timespec ts;
@@ -118,6 +122,7 @@ static ej_err ej_models_create(ej_sim *sim)
       m->eos = ej_calloc(1, sizeof *m->eos);
       EJ_ENSURE(m->eos, EJ_ERR_MEM, "out of memory");
       m->eos->ops = sm->eos_ops;
+      m->eos->config = sm->eos_config;
       EJ_TRY(sm->eos_ops->create(sm->eos_config, &m->eos->state));
     }
     if (sm->mat_ops) {
@@ -269,8 +274,23 @@ static ej_err ej_sets_create(ej_sim *sim)
     s->mops = ss->method_ops;
     s->mconfig = ss->method_config;
     s->model = &sim->models[ss->material];
+    s->t = &sim->t;
+    s->dt = &sim->dt;
     ej_decl d = {.set = s};
     EJ_TRY(s->mops->declare(s->mconfig, sc->dimension, &d));
+    const ej_eos *eos = s->model->eos;
+    if (eos && EJ_HAS_OP(eos->ops, ej_eos_ops, declare)) {
+      const ej_nbr_config keep = s->nbr_config; /* an EOS declares fields, never neighbours */
+      EJ_TRY(eos->ops->declare(eos->config, sc->dimension, &d));
+      s->nbr_config = keep;
+    }
+    const ej_material *mat = s->model->mat;
+    for (int k = 0; mat && k < mat->ops->n_hist; ++k) {
+      const ej_field_decl hd = {.name = mat->ops->hist_names[k], .kind = EJ_SCALAR, .flags = EJ_FIELD_OUTPUT,
+                                .unit = "1", .doc = "history variable of the strength model"};
+      EJ_TRY(ej_set_add_field(s, &hd, &s->f_hist[k]));
+      s->n_hist = k + 1;
+    }
     if (s->nbr_config == EJ_NBR_REFERENCE) {
       static const ej_field_decl x0 = {.name = "x0", .kind = EJ_VEC3, .flags = EJ_FIELD_POSITION, .unit = "m",
                                        .doc = "reference position"};
@@ -283,6 +303,12 @@ static ej_err ej_sets_create(ej_sim *sim)
     if (rc == EJ_OK) rc = ej_set_initial(sim, s, ss, &pts);
     ej_points_free(&pts);
     EJ_TRY(rc);
+    if (s->n_hist > 0 && mat->ops->init_hist) {
+      ej_real *hist[EJ_MAX_HIST];
+      ej_set_hist(s, hist, EJ_MAX_HIST);
+      EJ_TRY(mat->ops->init_hist(mat->state, s->n, hist));
+    }
+    if (eos && EJ_HAS_OP(eos->ops, ej_eos_ops, setup)) EJ_TRY(eos->ops->setup(eos->state, s));
     EJ_TRY(s->mops->create(s->mconfig, s, s->model, &s->mstate));
     if (s->nbr_config != EJ_NBR_NONE) EJ_TRY(ej_nbrlist_create(&s->list));
   }
@@ -348,7 +374,7 @@ static ej_err ej_ghost_push(ej_sim *sim, ej_set *s, ej_idx src, const ej_xform *
 
 /* Ghost images of particles within cutoff of each symmetry plane and periodic face, built
  * from the positions at the last rebuild (x_build) so that a restart rebuilds the same. */
-static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, ej_real cutoff)
+static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, int f_pos, ej_real cutoff)
 {
   const ej_scene *sc = sim->scene;
   s->n_ghost = 0;
@@ -358,7 +384,7 @@ static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, ej_real cutoff)
     const ej_idx n_images = s->n + s->n_ghost; /* images of images give edges and corners */
     for (ej_idx g = 0; g < n_images; ++g) {
       /* re-read: pushing a ghost may grow (reallocate) every field */
-      const ej_real *xb = s->fields[s->f_xb].data;
+      const ej_real *xb = s->fields[f_pos].data;
       ej_idx src = g < s->n ? g : s->ghost_src[g - s->n];
       const ej_xform *cur = &sim->xforms[g < s->n ? 0 : s->ghost_xf[g - s->n]];
       ej_real y[3];
@@ -400,7 +426,7 @@ static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, ej_real cutoff)
 }
 
 /* Positions and radii of owned + ghost particles at the last rebuild, for the list build. */
-static ej_err ej_build_points(ej_sim *sim, ej_set *s, ej_real **xs, ej_real **rs)
+static ej_err ej_build_points(ej_sim *sim, ej_set *s, int f_pos, ej_real **xs, ej_real **rs)
 {
   const ej_idx nt = s->n + s->n_ghost;
   ej_real *x = ej_malloc((size_t)nt * 3 * sizeof *x), *r = ej_malloc((size_t)nt * sizeof *r);
@@ -409,7 +435,7 @@ static ej_err ej_build_points(ej_sim *sim, ej_set *s, ej_real **xs, ej_real **rs
     ej_free(r);
     EJ_FAIL(EJ_ERR_MEM, "out of memory");
   }
-  const ej_real *xb = s->fields[s->f_xb].data, *rb = s->fields[s->f_rb].data;
+  const ej_real *xb = s->fields[f_pos].data, *rb = s->fields[s->f_rb].data;
   memcpy(x, xb, (size_t)s->n * 3 * sizeof *x);
   memcpy(r, rb, (size_t)s->n * sizeof *r);
   for (ej_idx g = 0; g < s->n_ghost; ++g) {
@@ -445,17 +471,24 @@ static ej_err ej_lists_from_build(ej_sim *sim)
     ej_set *s = sim->sets[i];
     if (s->nbr_config == EJ_NBR_REFERENCE && !s->list->pub.off) {
       /* Fixed families: built once in the reference configuration, never rebuilt (bond
-       * state stored by the method stays aligned with the CSR entries). */
-      ej_real *x0 = s->fields[s->f_x0].data, *rb = s->fields[s->f_rb].data;
-      EJ_TRY(ej_nbrlist_build(s->list, s->dim, x0, rb, s->n, x0, rb, s->n, 0, true));
+       * state stored by the method stays aligned with the CSR entries). Mirror and periodic
+       * ghosts are made once too, from the reference positions (x_build = x0 at t = 0). */
+      const ej_real rmax = ej_set_rmax(s, s->fields[s->f_rb].data);
+      EJ_TRY(ej_ghosts_build(sim, s, s->f_x0, rmax));
+      ej_real *xs, *rs;
+      EJ_TRY(ej_build_points(sim, s, s->f_x0, &xs, &rs));
+      ej_err rc = ej_nbrlist_build(s->list, s->dim, xs, rs, s->n, xs, rs, s->n + s->n_ghost, 0, true);
+      ej_free(xs);
+      ej_free(rs);
+      EJ_TRY(rc);
       continue;
     }
     if (s->nbr_config != EJ_NBR_CURRENT) continue;
     ej_real rmax = ej_set_rmax(s, s->fields[s->f_rb].data);
     ej_real sk = skin * rmax;
-    EJ_TRY(ej_ghosts_build(sim, s, rmax + sk));
+    EJ_TRY(ej_ghosts_build(sim, s, s->f_xb, rmax + sk));
     ej_real *xs, *rs;
-    EJ_TRY(ej_build_points(sim, s, &xs, &rs));
+    EJ_TRY(ej_build_points(sim, s, s->f_xb, &xs, &rs));
     ej_err rc = ej_nbrlist_build(s->list, s->dim, xs, rs, s->n, xs, rs, s->n + s->n_ghost, sk, true);
     ej_free(xs);
     ej_free(rs);
@@ -463,14 +496,17 @@ static ej_err ej_lists_from_build(ej_sim *sim)
   }
   for (int k = 0; k < sim->n_inter; ++k) {
     ej_inter *in = &sim->inter[k];
+    if (!in->b) continue;
     ej_real ra = ej_set_rmax(in->a, in->a->fields[in->a->f_rb].data);
     ej_real rb = ej_set_rmax(in->b, in->b->fields[in->b->f_rb].data);
     ej_real sk = skin * (ra > rb ? ra : rb);
     ej_real *xa, *rra, *xb, *rrb;
-    EJ_TRY(ej_build_points(sim, in->a, &xa, &rra));
-    ej_err rc = ej_build_points(sim, in->b, &xb, &rrb);
+    EJ_TRY(ej_build_points(sim, in->a, in->a->f_xb, &xa, &rra));
+    ej_err rc = ej_build_points(sim, in->b, in->b->f_xb, &xb, &rrb);
     if (rc == EJ_OK) {
       rc = ej_nbrlist_build(in->list, sim->dim, xa, rra, in->a->n, xb, rrb, in->b->n + in->b->n_ghost, sk, false);
+      if (rc == EJ_OK && in->list_ba)
+        rc = ej_nbrlist_build(in->list_ba, sim->dim, xb, rrb, in->b->n, xa, rra, in->a->n + in->a->n_ghost, sk, false);
       ej_free(xb);
       ej_free(rrb);
     }
@@ -491,7 +527,8 @@ static ej_err ej_rebuild(ej_sim *sim)
     ej_real *x = s->fields[s->f_x].data;
     for (int b = 0; b < sc->n_bcs; ++b) {
       const ej_scene_bc *bc = &sc->bcs[b];
-      if (bc->kind != EJ_BC_PERIODIC || !ej_bc_applies(bc, i)) continue;
+      /* reference families keep their bond vectors: their particles are never wrapped */
+      if (bc->kind != EJ_BC_PERIODIC || !ej_bc_applies(bc, i) || s->nbr_config == EJ_NBR_REFERENCE) continue;
       const ej_real L = bc->hi - bc->lo;
       for (ej_idx p = 0; p < s->n; ++p) {
         ej_real *y = &x[3 * p + bc->axis];
@@ -499,9 +536,9 @@ static ej_err ej_rebuild(ej_sim *sim)
         if (*y >= bc->hi) *y = bc->lo; /* round-off at the upper face */
       }
     }
-    if (s->nbr_config == EJ_NBR_NONE || s->n == 0) continue;
+    if ((s->nbr_config == EJ_NBR_NONE && !s->in_interaction) || s->n == 0) continue;
     /* Reference sets are sorted once, before their families exist. */
-    if (s->nbr_config == EJ_NBR_CURRENT || sim->n_rebuilds == 0) {
+    if (s->nbr_config != EJ_NBR_REFERENCE || sim->n_rebuilds == 0) {
       EJ_TRY(ej_for_chunks(sim, s, ej_support_chunk, NULL));
       ej_real cell = ej_set_rmax(s, s->radius) * (1 + sc->skin);
       ej_idx *perm = ej_malloc((size_t)s->n * sizeof *perm);
@@ -526,8 +563,9 @@ static ej_err ej_rebuild_due(ej_sim *sim, bool *due)
   *due = false;
   for (int i = 0; i < sim->n_sets; ++i) {
     ej_set *s = sim->sets[i];
-    if (s->nbr_config != EJ_NBR_CURRENT) continue;
-    EJ_TRY(ej_for_chunks(sim, s, ej_support_chunk, NULL));
+    if (s->nbr_config != EJ_NBR_CURRENT && !s->in_interaction) continue;
+    if (s->nbr_config != EJ_NBR_REFERENCE) EJ_TRY(ej_for_chunks(sim, s, ej_support_chunk, NULL));
+    else memcpy(s->radius, s->fields[s->f_rb].data, (size_t)s->n * sizeof(ej_real));
     const ej_real *x = s->fields[s->f_x].data, *xb = s->fields[s->f_xb].data, *rb = s->fields[s->f_rb].data;
     ej_real d2 = 0, grow = 0, rmax = 0;
     for (ej_idx p = 0; p < s->n; ++p) {
@@ -559,13 +597,21 @@ static ej_err ej_compute_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_
 typedef struct ej_inter_ctx {
   ej_inter *in;
   int pass;
+  bool reverse; /* b's side of a both_ways interaction */
 } ej_inter_ctx;
 
 static ej_err ej_inter_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
 {
   (void)sim, (void)s, (void)c;
   ej_inter_ctx *ic = ctx;
-  return ic->in->ops->compute(ic->in->state, ic->in->a, ic->in->b, &ic->in->list->pub, ic->pass, r);
+  ej_inter *in = ic->in;
+  if (ic->reverse) return in->ops->compute(in->state, in->b, in->a, &in->list_ba->pub, ic->pass, r);
+  return in->ops->compute(in->state, in->a, in->b, in->list ? &in->list->pub : NULL, ic->pass, r);
+}
+
+static int ej_inter_passes(const ej_inter *in)
+{
+  return EJ_HAS_OP(in->ops, ej_interaction_ops, n_passes) && in->ops->n_passes > 1 ? in->ops->n_passes : 1;
 }
 
 static ej_err ej_zero_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
@@ -623,9 +669,19 @@ static ej_err ej_compute_all(ej_sim *sim)
       ej_pass_ctx pc = {pass};
       EJ_TRY(ej_for_chunks(sim, s, ej_compute_chunk, &pc));
     }
-    for (int k = 0; k < sim->n_inter; ++k) {
-      ej_inter_ctx ic = {&sim->inter[k], pass};
-      EJ_TRY(ej_for_chunks(sim, sim->inter[k].a, ej_inter_chunk, &ic));
+  }
+  /* Interactions see both sets at t_n+1 after all their passes (plugin.h). */
+  for (int k = 0; k < sim->n_inter; ++k) {
+    ej_inter *in = &sim->inter[k];
+    for (int pass = 0; pass < ej_inter_passes(in); ++pass) {
+      ej_set_update_ghosts(in->a, sim->xforms);
+      if (in->b) ej_set_update_ghosts(in->b, sim->xforms);
+      ej_inter_ctx ic = {in, pass, false};
+      EJ_TRY(ej_for_chunks(sim, in->a, ej_inter_chunk, &ic));
+      if (in->list_ba) {
+        ej_inter_ctx rc = {in, pass, true};
+        EJ_TRY(ej_for_chunks(sim, in->b, ej_inter_chunk, &rc));
+      }
     }
   }
   for (int i = 0; i < sim->n_sets; ++i) EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_body_chunk, NULL));
@@ -794,6 +850,59 @@ static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   return EJ_OK;
 }
 
+/* Appends one plugin's series to the step's reports: names are fixed on the first call; a
+ * plugin that changes its list later is a plugin bug. */
+static ej_err ej_reports_add(ej_sim *sim, const char *owner, const ej_series_value *v, int n, int *slot,
+                             ej_real *ext)
+{
+  ej_reports *R = &sim->reports;
+  for (int k = 0; k < n; ++k, ++*slot) {
+    char name[sizeof R->names[0]];
+    snprintf(name, sizeof name, "%s/%s", owner, v[k].name);
+    if (!R->fixed) {
+      EJ_ENSURE(*slot < EJ_MAX_REPORTS, EJ_ERR_PLUGIN, "more than %d reported series", EJ_MAX_REPORTS);
+      memcpy(R->names[*slot], name, sizeof name);
+      R->n = *slot + 1;
+    } else {
+      EJ_ENSURE(*slot < R->n && !strcmp(R->names[*slot], name), EJ_ERR_PLUGIN,
+                "'%s' changed its reported series after the first step (%s)", owner, name);
+    }
+    R->values[*slot] = v[k].value;
+    if (v[k].role == EJ_SERIES_WORK) *ext += v[k].value;
+    else if (v[k].role == EJ_SERIES_DISSIPATED) *ext -= v[k].value;
+  }
+  return EJ_OK;
+}
+
+/* Series of every method and interaction; returns the plugins' net external work. */
+static ej_err ej_reports_collect(ej_sim *sim, ej_real *ext)
+{
+  int slot = 0;
+  *ext = 0;
+  ej_series_value v[EJ_MAX_SERIES];
+  for (int i = 0; i < sim->n_sets; ++i) {
+    ej_set *s = sim->sets[i];
+    if (!EJ_HAS_OP(s->mops, ej_method_ops, report)) continue;
+    int n = 0;
+    EJ_TRY(s->mops->report(s->mstate, s, v, EJ_MAX_SERIES, &n));
+    EJ_ENSURE(n >= 0 && n <= EJ_MAX_SERIES, EJ_ERR_PLUGIN, "method '%s' reported %d series", s->mops->name, n);
+    EJ_TRY(ej_reports_add(sim, s->name, v, n, &slot, ext));
+  }
+  for (int k = 0; k < sim->n_inter; ++k) {
+    ej_inter *in = &sim->inter[k];
+    if (!EJ_HAS_OP(in->ops, ej_interaction_ops, report)) continue;
+    int n = 0;
+    EJ_TRY(in->ops->report(in->state, v, EJ_MAX_SERIES, &n));
+    EJ_ENSURE(n >= 0 && n <= EJ_MAX_SERIES, EJ_ERR_PLUGIN, "interaction '%s' reported %d series", in->ops->name, n);
+    char owner[80];
+    snprintf(owner, sizeof owner, "%s_%d", in->ops->name, k);
+    EJ_TRY(ej_reports_add(sim, owner, v, n, &slot, ext));
+  }
+  EJ_ENSURE(!sim->reports.fixed || slot == sim->reports.n, EJ_ERR_PLUGIN, "a plugin changed its reported series");
+  sim->reports.fixed = true;
+  return EJ_OK;
+}
+
 static ej_err ej_energy_update(ej_sim *sim, bool with_work)
 {
   ej_real tot[EJ_NRED] = {0}, work = 0;
@@ -818,7 +927,10 @@ static ej_err ej_energy_update(ej_sim *sim, bool with_work)
   E->plastic = tot[EJ_R_PLAS];
   E->hourglass = tot[EJ_R_HG];
   E->momentum[0] = tot[EJ_R_PX], E->momentum[1] = tot[EJ_R_PY], E->momentum[2] = tot[EJ_R_PZ];
-  E->external += work;
+  E->work_gravity += work;
+  ej_real ext_plugins;
+  EJ_TRY(ej_reports_collect(sim, &ext_plugins));
+  E->external = E->work_gravity + ext_plugins;
   E->balance = E->kinetic + E->internal - E->total0 - E->external;
   return EJ_OK;
 }
@@ -920,8 +1032,12 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
     in->ops = si->ops;
     in->config = si->config;
     in->a = sim->sets[si->set_a];
-    in->b = sim->sets[si->set_b];
-    EJ_TRY_GOTO(rc, ej_nbrlist_create(&in->list), out_destroy);
+    in->b = si->set_b >= 0 ? sim->sets[si->set_b] : NULL;
+    if (in->b) {
+      EJ_TRY_GOTO(rc, ej_nbrlist_create(&in->list), out_destroy);
+      if (EJ_HAS_OP(in->ops, ej_interaction_ops, both_ways)) EJ_TRY_GOTO(rc, ej_nbrlist_create(&in->list_ba), out_destroy);
+      in->a->in_interaction = in->b->in_interaction = true;
+    }
     EJ_TRY_GOTO(rc, in->ops->create(in->config, in->a, in->b, &in->state), out_destroy);
   }
   const char *path = opts && opts->output ? opts->output : scene->output_file;
@@ -994,6 +1110,10 @@ ej_err ej_sim_run(ej_sim *sim)
     for (int i = 0; i < sim->n_sets; ++i) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_chunk, NULL), out);
     for (int i = 0; i < sim->n_sets; ++i)
       if (sim->sets[i]->mops->post_step) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_post_chunk, NULL), out);
+    for (int k = 0; k < sim->n_inter; ++k) {
+      ej_inter *in = &sim->inter[k];
+      if (EJ_HAS_OP(in->ops, ej_interaction_ops, post_step)) EJ_TRY_GOTO(rc, in->ops->post_step(in->state, in->a, in->b), out);
+    }
     EJ_TRY_GOTO(rc, ej_energy_update(sim, true), out);
     EJ_TRY_GOTO(rc, ej_watchdog(sim), out);
     const ej_real dt_used = sim->dt;
@@ -1024,6 +1144,7 @@ void ej_sim_destroy(ej_sim *sim)
   for (int k = 0; k < sim->n_inter; ++k) {
     if (sim->inter[k].state) sim->inter[k].ops->destroy(sim->inter[k].state);
     ej_nbrlist_destroy(sim->inter[k].list);
+    ej_nbrlist_destroy(sim->inter[k].list_ba);
   }
   ej_free(sim->inter);
   for (int i = 0; i < sim->n_sets; ++i) {

@@ -134,7 +134,7 @@ static void series_row(ej_sim *sim, int k)
   sim->energy.viscous = k * 0.25;
   sim->energy.plastic = k * 0.125;
   sim->energy.hourglass = -k * 1e-3;
-  sim->energy.external = k * 3.0;
+  sim->energy.work_gravity = sim->energy.external = k * 3.0;
   sim->energy.balance = 1e-9 * k;
   sim->energy.momentum[0] = k;
   sim->energy.momentum[1] = -k;
@@ -353,7 +353,7 @@ START_TEST(test_file_layout)
   ck_assert(has(f, "/checkpoint"));
   ck_assert(!has(f, "/checkpoint_partial"));
   hid_t cp = H5Gopen2(f, "/checkpoint", H5P_DEFAULT);
-  ck_assert_int_eq(attr_int(cp, "format_version"), 1);
+  ck_assert_int_eq(attr_int(cp, "format_version"), 2);
   ck_assert_int_eq(attr_int(cp, "frame"), 2);
   ck_assert_int_eq(attr_int(cp, "n_rebuilds"), 42);
   H5Gclose(cp);
@@ -478,7 +478,7 @@ START_TEST(test_checkpoint_roundtrip)
   fx.sim.t = fx.sim.dt = -1;
   fx.sim.step = fx.sim.n_rebuilds = fx.sim.frame = -1;
   fx.sim.next_output = fx.sim.next_checkpoint = -1;
-  fx.sim.energy.external = fx.sim.energy.total0 = -1;
+  fx.sim.energy.work_gravity = fx.sim.energy.total0 = -1;
   ck_assert_int_eq(ej_checkpoint_read(fx.path, &fx.sim), EJ_OK);
   ck_assert_int_eq(fx.sets[0]->n_ghost, 0);
   assert_sets_equal(fx.sets, ref.sets);
@@ -487,7 +487,7 @@ START_TEST(test_checkpoint_roundtrip)
   ck_assert_int_eq(fx.sim.n_rebuilds, 42);
   ck_assert_int_eq(fx.sim.frame, 2);
   ck_assert(fx.sim.next_output == 0.125 && fx.sim.next_checkpoint == 0.375);
-  ck_assert(fx.sim.energy.external == saved.energy.external && fx.sim.energy.total0 == 12345.678);
+  ck_assert(fx.sim.energy.work_gravity == saved.energy.work_gravity && fx.sim.energy.total0 == 12345.678);
 
   /* A fresh sim with no particles yet grows to the checkpoint's counts. */
   ej_set *fresh[2];

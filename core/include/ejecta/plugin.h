@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 0 /* members appended to an info or ops struct        */
+#define EJ_ABI_MINOR 1 /* members appended to an info or ops struct        */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -221,6 +221,13 @@ ej_real *ej_set_field(const ej_set *s, const char *name);
 int32_t *ej_set_field_int(const ej_set *s, const char *name);
 /* Initial spacing of particle i's lattice (for kernel sizes and time steps). */
 ej_real ej_set_spacing_min(const ej_set *s);
+/* Simulation time at the configuration being computed (t_n+1 inside compute) and the step. */
+ej_real ej_set_time(const ej_set *s);
+ej_real ej_set_dt(const ej_set *s);
+/* History variables of the set's strength model: fills hist[k] with the base of variable k
+ * (owned + ghost particles, one value each, allocated by the core as scalar fields named by
+ * the material's hist_names) and returns their number (0 without a strength model). */
+int ej_set_hist(const ej_set *s, ej_real **hist, int max);
 
 /* ------------------------------------------------------------------ neighbours */
 
@@ -242,6 +249,7 @@ typedef struct ej_nbr {
 /* ------------------------------------------------------------------ EOS */
 
 typedef struct ej_eos ej_eos; /* an EOS instance (opaque) */
+typedef struct ej_decl ej_decl;
 
 typedef struct ej_eos_ops {
   size_t struct_size;
@@ -254,10 +262,24 @@ typedef struct ej_eos_ops {
   ej_err (*evaluate)(const void *state, ej_idx n, const ej_real *rho, const ej_real *e, ej_real *p,
                      ej_real *c);
   void (*destroy)(void *state);
+  /* --- ABI 1.1: an EOS with per-particle state (programmed burn). All three may be NULL. */
+  /* Fields this EOS needs on every set made of its material (lighting time, burn fraction). */
+  ej_err (*declare)(const void *config, int dim, ej_decl *d);
+  /* After initial conditions, before the method's setup (lighting times from x). Serial. */
+  ej_err (*setup)(const void *state, ej_set *set);
+  /* p and c for the particles of r: rho[k], e[k], p[k], c[k] belong to particle r.begin + k.
+   * May read the set's fields and time and write its own declared fields of particles in r. */
+  ej_err (*evaluate_set)(const void *state, ej_set *set, ej_range r, const ej_real *rho, const ej_real *e,
+                         ej_real *p, ej_real *c);
 } ej_eos_ops;
 
+/* Plain p(rho, e) without particle state (burn fraction taken as 1). */
 ej_err ej_eos_evaluate(const ej_eos *eos, ej_idx n, const ej_real *rho, const ej_real *e, ej_real *p,
                        ej_real *c);
+/* What methods call: the EOS's evaluate_set if it has one, else evaluate. Arrays as in
+ * ej_eos_ops.evaluate_set (indexed from r.begin). */
+ej_err ej_eos_evaluate_set(const ej_eos *eos, ej_set *set, ej_range r, const ej_real *rho, const ej_real *e,
+                           ej_real *p, ej_real *c);
 
 /* ------------------------------------------------------------------ materials (strength) */
 
@@ -273,9 +295,10 @@ typedef struct ej_mat_batch {
   const ej_real *F;   /* [n][9] deformation gradient, or NULL                        */
   const ej_real *p;   /* [n] pressure from the attached EOS, or NULL                 */
   ej_real *stress;    /* [n][6] in: rotated stress at t_n; out: Cauchy at t_n+1       */
-  ej_real *hist;      /* [n][n_hist] history variables                               */
+  ej_real *const *hist; /* [n_hist] -> [n]: history variable k of point i is hist[k][i]  */
   ej_real *c;         /* [n] out: sound speed                                        */
   ej_real *w_plastic; /* [n] out: specific plastic work increment, or NULL           */
+  int32_t *failed;    /* [n] out: set to 1 when the point fails (erosion, point failure), or NULL */
 } ej_mat_batch;
 
 typedef struct ej_material_ops {
@@ -288,12 +311,20 @@ typedef struct ej_material_ops {
   const char *const *hist_names;
   bool needs_eos; /* volumetric response from the EOS the scene attaches */
   ej_err (*create)(const void *config, void **state);
-  ej_err (*init_hist)(const void *state, ej_idx n, ej_real *hist);
+  /* Initial history values of n points: hist[k][i] as in ej_mat_batch. May be NULL (zeros). */
+  ej_err (*init_hist)(const void *state, ej_idx n, ej_real *const *hist);
+  /* Convention: update returns the total Cauchy stress; a material with needs_eos adds -p I
+   * from b->p to its deviatoric stress; one without computes the volumetric part itself. */
   ej_err (*update)(const void *state, ej_mat_batch *b);
   void (*destroy)(void *state);
+  /* Initial (elastic) bulk and shear moduli at the reference density: stable steps, hourglass
+   * and bond constants. Required. */
+  ej_err (*moduli)(const void *state, ej_real *K, ej_real *G);
 } ej_material_ops;
 
 ej_err ej_material_update(const ej_material *mat, ej_mat_batch *b);
+ej_err ej_material_moduli(const ej_material *mat, ej_real *K, ej_real *G);
+int ej_material_n_hist(const ej_material *mat);
 
 /* What a set is made of: reference density, EOS and strength model (either may be NULL). */
 typedef struct ej_model ej_model;
@@ -304,8 +335,7 @@ const char *ej_model_name(const ej_model *m);
 
 /* ------------------------------------------------------------------ methods */
 
-/* Filled by a method's declare op: the fields and neighbour list it needs. */
-typedef struct ej_decl ej_decl;
+/* Filled by a method's (or an EOS's) declare op: the fields and neighbour list it needs. */
 ej_err ej_decl_field(ej_decl *d, const ej_field_decl *f);
 /* Neighbour list over the method's own set, in the given configuration. */
 ej_err ej_decl_neighbours(ej_decl *d, ej_nbr_config config);
@@ -315,6 +345,18 @@ typedef struct ej_counter {
   const char *name;
   int64_t value;
 } ej_counter;
+
+/* Per-step scalars a plugin reports (mean damage, indenter force): written each step to
+ * /series/<set or interaction>/<name>. A role other than NONE also enters the energy budget:
+ * WORK is the cumulative work done on the particles by external agents (J), DISSIPATED the
+ * cumulative energy removed by the plugin (J) (contact damping, hourglass in an interaction). */
+typedef enum ej_series_role { EJ_SERIES_PLAIN = 0, EJ_SERIES_WORK, EJ_SERIES_DISSIPATED } ej_series_role;
+typedef struct ej_series_value {
+  const char *name; /* static string, same order every step */
+  ej_real value;
+  ej_series_role role;
+} ej_series_value;
+#define EJ_MAX_SERIES 16 /* per plugin instance */
 
 typedef struct ej_method_ops {
   size_t struct_size;
@@ -344,22 +386,38 @@ typedef struct ej_method_ops {
   /* Passes this instance needs (1..n_passes), when it depends on the configuration: the core
    * then calls passes 0..count-1 only, saving the ghost refreshes of unused ones. May be NULL. */
   int (*pass_count)(const void *state);
+  /* --- ABI 1.1. Per-step series (serial, after post_step). May be NULL. */
+  ej_err (*report)(void *state, const ej_set *set, ej_series_value *out, int max, int *n);
 } ej_method_ops;
 
 /* ------------------------------------------------------------------ interactions */
 
+/* An interaction acts on two sets (scene: sets: [a, b]) through a current-configuration list
+ * from a to b whose reach is max(R_i, R_j) from both methods' support ops, or on one set
+ * (sets: [a]; b == NULL, ab == NULL: rigid indenter, walls). compute is called after every
+ * set has completed all its passes (so stress, pressure and density of both sets are those
+ * of t_n+1), for pass = 0 .. n_passes-1 with ghosts refreshed in between, over ranges r of
+ * a's owned particles, and adds to a's acceleration and rates of particles in r only
+ * (gather form). With both_ways the core also
+ * builds the list from b to a and calls compute(state, b, a, ba, pass, r) over ranges of b,
+ * so a pairwise force is applied to both sides without scatter. */
 typedef struct ej_interaction_ops {
   size_t struct_size;
   const char *name, *summary, *doc;
   const ej_param *params;
   size_t config_size;
   ej_config_check_fn check_config;
-  /* Neighbour list from set a to set b in the current configuration with radii from both
-   * methods' support ops. */
   ej_err (*create)(const void *config, ej_set *a, ej_set *b, void **state);
   ej_err (*compute)(void *state, ej_set *a, ej_set *b, const ej_nbr *ab, int pass, ej_range r);
   ej_err (*stable_dt)(void *state, const ej_set *a, const ej_set *b, ej_real *dt);
   void (*destroy)(void *state);
+  /* --- ABI 1.1 */
+  bool both_ways;
+  int n_passes; /* 0 is taken as 1 */
+  /* After the step is complete (serial): advance a kinematic body, accumulate work. May be NULL. */
+  ej_err (*post_step)(void *state, ej_set *a, ej_set *b);
+  /* Per-step series, as for methods. May be NULL. */
+  ej_err (*report)(void *state, ej_series_value *out, int max, int *n);
 } ej_interaction_ops;
 
 /* ------------------------------------------------------------------ registration */

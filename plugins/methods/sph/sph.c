@@ -233,7 +233,7 @@ static ej_err sph_particle_pass(const sph_state *s, ej_set *set, ej_range r)
     h[i] = sph_h(cfg, dim, m[i], vol0[i], rho[i]);
   }
   if (r.end > r.begin)
-    EJ_TRY(ej_eos_evaluate(s->eos, r.end - r.begin, rho + r.begin, e + r.begin, p + r.begin, c + r.begin));
+    EJ_TRY(ej_eos_evaluate_set(s->eos, set, r, rho + r.begin, e + r.begin, p + r.begin, c + r.begin));
   for (ej_idx i = r.begin; i < r.end; ++i) {
     p_rho2[i] = p[i] / (rho[i] * rho[i]);
     w_cont[i] = cfg->continuity == SPH_CONT_VOLUME ? m[i] / rho[i] : m[i];
