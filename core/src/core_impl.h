@@ -319,6 +319,8 @@ struct ej_set {
   int n_hist;
   int f_hist[EJ_MAX_HIST]; /* fields of the strength model's history variables */
   bool in_interaction;     /* a two-set interaction lists it: x_build kept current */
+  uint8_t *bond_flags;     /* [n_bonds] per CSR entry of a reference family */
+  ej_off n_bonds;
   /* method */
   const ej_method_ops *mops;
   const void *mconfig;

@@ -637,6 +637,26 @@ close_all:
   return rc;
 }
 
+#define EJ_CP_BONDS "_bond_flags"
+
+static ej_err ej_checkpoint_bonds(hid_t g, const ej_set *s)
+{
+  ej_err rc = EJ_OK;
+  hsize_t n = (hsize_t)s->n_bonds;
+  hid_t space = H5Screate_simple(1, &n, NULL), dset = -1;
+  if (space < 0) goto fail;
+  dset = H5Dcreate2(g, EJ_CP_BONDS, H5T_STD_U8LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (dset < 0 || (n > 0 && H5Dwrite(dset, H5T_NATIVE_UINT8, H5S_ALL, H5S_ALL, H5P_DEFAULT, s->bond_flags) < 0))
+    goto fail;
+  goto close_all;
+fail:
+  rc = EJ_H5_FAIL(g, EJ_CP_BONDS);
+close_all:
+  if (dset >= 0) H5Dclose(dset);
+  if (space >= 0) H5Sclose(space);
+  return rc;
+}
+
 static ej_err ej_checkpoint_set(hid_t cp, const ej_set *s)
 {
   ej_err rc = EJ_OK;
@@ -648,6 +668,7 @@ static ej_err ej_checkpoint_set(hid_t cp, const ej_set *s)
     EJ_TRY_GOTO(rc, ej_h5_put_field(g, &s->fields[f], s->n), close_group);
   }
   if (s->bc_mask) EJ_TRY_GOTO(rc, ej_checkpoint_bc_mask(g, s), close_group);
+  if (s->bond_flags) EJ_TRY_GOTO(rc, ej_checkpoint_bonds(g, s), close_group);
 close_group:
   H5Gclose(g);
   return rc;
@@ -875,6 +896,24 @@ static ej_err ej_cp_set(const ej_cp_reader *r, hid_t cp, ej_set *s)
     if (st < 0) {
       H5Eclear2(H5E_DEFAULT);
       rc = ej_error_input(&r->loc, "cannot restart from '%s': boundary masks of set '%s' are unreadable", r->path,
+                          s->name);
+    }
+  }
+  if (rc == EJ_OK && H5Lexists(g, EJ_CP_BONDS, H5P_DEFAULT) > 0) {
+    /* Kept until the family is rebuilt from x0, which checks the count (sim.c). */
+    hid_t dset = H5Dopen2(g, EJ_CP_BONDS, H5P_DEFAULT), space = dset >= 0 ? H5Dget_space(dset) : -1;
+    hssize_t len = space >= 0 ? H5Sget_simple_extent_npoints(space) : -1;
+    herr_t st = len >= 0 ? 0 : -1;
+    ej_free(s->bond_flags);
+    s->bond_flags = st == 0 ? ej_calloc((size_t)len + 1, 1) : NULL;
+    if (st == 0 && !s->bond_flags) st = -1;
+    if (st == 0 && len > 0) st = H5Dread(dset, H5T_NATIVE_UINT8, H5S_ALL, H5S_ALL, H5P_DEFAULT, s->bond_flags);
+    s->n_bonds = st == 0 ? (ej_off)len : 0;
+    if (space >= 0) H5Sclose(space);
+    if (dset >= 0) H5Dclose(dset);
+    if (st < 0) {
+      H5Eclear2(H5E_DEFAULT);
+      rc = ej_error_input(&r->loc, "cannot restart from '%s': bond states of set '%s' are unreadable", r->path,
                           s->name);
     }
   }

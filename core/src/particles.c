@@ -66,6 +66,7 @@ void ej_set_destroy(ej_set *s)
   ej_free(s->ghost_src);
   ej_free(s->ghost_xf);
   ej_free(s->bc_mask);
+  ej_free(s->bond_flags);
   ej_free(s->name);
   ej_free(s);
 }
@@ -315,6 +316,8 @@ ej_err ej_material_moduli(const ej_material *mat, ej_real *K, ej_real *G)
 }
 
 int ej_material_n_hist(const ej_material *mat) { return mat ? mat->ops->n_hist : 0; }
+
+uint8_t *ej_set_bond_flags(const ej_set *s) { return s->bond_flags; }
 
 ej_real ej_set_time(const ej_set *s) { return s->t ? *s->t : 0; }
 ej_real ej_set_dt(const ej_set *s) { return s->dt ? *s->dt : 0; }

@@ -481,6 +481,15 @@ static ej_err ej_lists_from_build(ej_sim *sim)
       ej_free(xs);
       ej_free(rs);
       EJ_TRY(rc);
+      const ej_off nb = s->list->pub.off[s->n];
+      if (s->bond_flags) { /* restored from a checkpoint: the family is rebuilt identically */
+        EJ_ENSURE(s->n_bonds == nb, EJ_ERR_INPUT, "set '%s': the checkpoint has %lld bonds, the rebuilt family %lld",
+                  s->name, (long long)s->n_bonds, (long long)nb);
+      } else {
+        s->bond_flags = ej_calloc((size_t)nb + 1, 1);
+        EJ_ENSURE(s->bond_flags, EJ_ERR_MEM, "out of memory");
+        s->n_bonds = nb;
+      }
       continue;
     }
     if (s->nbr_config != EJ_NBR_CURRENT) continue;

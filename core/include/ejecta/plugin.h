@@ -246,6 +246,13 @@ typedef struct ej_nbr {
   const ej_idx *idx; /* [off[n_rows]] */
 } ej_nbr;
 
+/* Per-bond state of a set's reference-configuration family (EJ_NBR_REFERENCE): one byte per
+ * CSR entry of its list (bond k of particle i is entry nbr->off[i] + k), zero when the family is
+ * built, owned and checkpointed by the core (so a restart keeps broken bonds). The method uses
+ * the bits as it likes (bit 0 = broken, by convention). NULL for other sets or before the first
+ * build (available from the first compute on). */
+uint8_t *ej_set_bond_flags(const ej_set *s);
+
 /* ------------------------------------------------------------------ EOS */
 
 typedef struct ej_eos ej_eos; /* an EOS instance (opaque) */
