@@ -512,9 +512,17 @@ static ej_err ej_parse_interaction(ej_loader *L, ej_scene_interaction *it, const
   if (!sets) return ej_error_input(&n->loc, "%s needs 'sets: [a, b]' (or '[a]' for a one-set interaction)", what);
   if (sets->type != EJ_NODE_SEQ || sets->n < 1 || sets->n > 2)
     return ej_error_input(&sets->loc, "%s: 'sets' must be a list of one or two set names", what);
+  const int want = it->ops->struct_size >= offsetof(ej_interaction_ops, n_sets) + sizeof(int) ? it->ops->n_sets : 0;
+  if (want == 1 && sets->n != 1)
+    return ej_error_input(&sets->loc, "%s acts on one set: write 'sets: [name]'", what);
+  if (want == 2 && sets->n != 2)
+    return ej_error_input(&sets->loc, "%s couples two sets: write 'sets: [a, b]'", what);
   EJ_TRY(ej_set_ref(L, sets->items[0], "interaction", &it->set_a));
   it->set_b = -1;
   if (sets->n == 2) EJ_TRY(ej_set_ref(L, sets->items[1], "interaction", &it->set_b));
+  if (want == 2 && it->set_a == it->set_b)
+    return ej_error_input(&sets->items[1]->loc, "%s couples two different sets, got '%s' twice", what,
+                          sets->items[1]->text ? sets->items[1]->text : "?");
   return EJ_OK;
 }
 

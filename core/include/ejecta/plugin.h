@@ -339,6 +339,8 @@ ej_real ej_model_rho0(const ej_model *m);
 const ej_eos *ej_model_eos(const ej_model *m);
 const ej_material *ej_model_material(const ej_model *m);
 const char *ej_model_name(const ej_model *m);
+/* What a set is made of (interactions read the other set's EOS or moduli through it). */
+const ej_model *ej_set_model(const ej_set *s);
 
 /* ------------------------------------------------------------------ methods */
 
@@ -425,6 +427,8 @@ typedef struct ej_interaction_ops {
   ej_err (*post_step)(void *state, ej_set *a, ej_set *b);
   /* Per-step series, as for methods. May be NULL. */
   ej_err (*report)(void *state, ej_series_value *out, int max, int *n);
+  /* Sets it acts on: 1, 2, or 0 for either; the scene is checked against it. */
+  int n_sets;
 } ej_interaction_ops;
 
 /* ------------------------------------------------------------------ registration */

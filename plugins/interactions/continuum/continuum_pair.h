@@ -1,0 +1,157 @@
+/* The momentum- and energy-conserving pair force between two continuum particle sets, shared
+ * by the `continuum` interaction and the `pairwise` form of `pd_sph`.
+ *
+ * Any method that publishes the field conventions below can be coupled, whatever it is (SPH,
+ * UL-PD, TL-PD, RKPM): x, v, m (core), rho, and either `stress` (Cauchy, Voigt, tension
+ * positive) or `p` (pressure, compression positive: sigma = -p I). Optional: `c` (sound
+ * speed; else from the set's material moduli or EOS), `h` (smoothing length; else h_factor
+ * times the particle's initial spacing vol0^(1/dim)), `rho_dot` and `e_dot` (the interface's
+ * share of the continuity and energy equations is added when the set integrates them).
+ *
+ * Pair terms (SPH form for a stress tensor, e.g. Libersky & Petschek 1991; Monaghan 1992 for
+ * the viscosity), with grad_i W = dW/dr(r, hbar) (x_i - x_j) / r and S_ij = sigma_i / rho_i^2 +
+ * sigma_j / rho_j^2 - Pi_ij I:
+ *   dv_i/dt   += sum_j m_j S_ij grad_i W
+ *   de_i/dt   += -sum_j m_j (sigma_i / rho_i^2 - Pi_ij / 2 I) : ((v_i - v_j) (x) grad_i W)
+ *   drho_i/dt += rho_i sum_j (m_j / rho_j) (v_i - v_j) . grad_i W
+ * S_ij is symmetric in i and j and grad_j W = -grad_i W, so the force on j is minus the force
+ * on i (momentum to round-off) and the work of the pair equals minus the change of the two
+ * internal energies (energy to round-off): each side is computed by its own gather call.
+ */
+#ifndef EJ_CONTINUUM_PAIR_H
+#define EJ_CONTINUUM_PAIR_H
+
+#include <math.h>
+
+#include "../../methods/sph/sph_kernels.h"
+#include "ejecta/plugin.h"
+#include "ejecta/tensor.h"
+
+typedef struct cpl_side {
+  const ej_set *set;
+  int dim;
+  const ej_real *x, *v, *m, *vol0, *rho, *p, *stress, *c, *h;
+  ej_real *a, *rho_dot, *e_dot;
+  ej_real c_fallback;  /* sound speed when the set has no c field */
+  ej_real h_fallback;  /* h_factor, when the set has no h field */
+} cpl_side;
+
+typedef struct cpl_params {
+  int kernel;
+  ej_real alpha, beta, eta;
+  ej_real h_factor;
+} cpl_params;
+
+/* Binds the fields of a set; EJ_ERR_INPUT names what is missing. */
+static inline ej_err cpl_bind(cpl_side *s, ej_set *set, const char *who, ej_real h_factor)
+{
+  s->set = set;
+  s->dim = ej_set_dim(set);
+  s->x = ej_set_field(set, "x");
+  s->v = ej_set_field(set, "v");
+  s->m = ej_set_field(set, "m");
+  s->vol0 = ej_set_field(set, "vol0");
+  s->a = ej_set_field(set, "a");
+  s->rho = ej_set_field(set, "rho");
+  s->p = ej_set_field(set, "p");
+  s->stress = ej_set_field(set, "stress");
+  s->c = ej_set_field(set, "c");
+  s->h = ej_set_field(set, "h");
+  s->rho_dot = ej_set_field(set, "rho_dot");
+  s->e_dot = ej_set_field(set, "e_dot");
+  s->h_fallback = h_factor;
+  if (!s->rho)
+    EJ_FAIL(EJ_ERR_INPUT, "%s: set '%s' has no density field 'rho' (its method does not publish one)", who,
+            ej_set_name(set));
+  if (!s->p && !s->stress)
+    EJ_FAIL(EJ_ERR_INPUT, "%s: set '%s' publishes neither 'stress' nor 'p'", who, ej_set_name(set));
+  s->c_fallback = 0;
+  const ej_model *model = ej_set_model(set);
+  const ej_material *mat = model ? ej_model_material(model) : NULL;
+  if (mat) {
+    ej_real K, G;
+    EJ_TRY(ej_material_moduli(mat, &K, &G));
+    s->c_fallback = sqrt((K + 4.0 * G / 3.0) / ej_model_rho0(model));
+  }
+  return EJ_OK;
+}
+
+static inline void cpl_stress(const cpl_side *s, ej_idx i, ej_real sig[6])
+{
+  if (s->stress) {
+    for (int k = 0; k < 6; ++k) sig[k] = s->stress[6 * i + k];
+  } else {
+    sig[0] = sig[1] = sig[2] = -s->p[i];
+    sig[3] = sig[4] = sig[5] = 0;
+  }
+}
+
+static inline ej_real cpl_h(const cpl_side *s, ej_idx i)
+{
+  if (s->h) return s->h[i];
+  const ej_real v = s->vol0[i];
+  const ej_real dx = s->dim == 1 ? v : s->dim == 2 ? sqrt(v) : cbrt(v);
+  return s->h_fallback * dx;
+}
+
+static inline ej_real cpl_c(const cpl_side *s, ej_idx i) { return s->c ? s->c[i] : s->c_fallback; }
+
+/* Adds the pair terms of the neighbours j (of side b) to particles i in r (of side a). */
+static inline void cpl_gather(const cpl_params *P, const cpl_side *A, const cpl_side *B, const ej_nbr *ab,
+                              ej_range r)
+{
+  const int dim = A->dim;
+  const ej_real sigma_k = sph_kernel_sigma(P->kernel, dim);
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    ej_real si[6];
+    cpl_stress(A, i, si);
+    const ej_real rho_i = A->rho[i], irho2_i = 1.0 / (rho_i * rho_i), h_i = cpl_h(A, i), c_i = cpl_c(A, i);
+    ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0;
+    for (ej_off k = ab->off[i]; k < ab->off[i + 1]; ++k) {
+      const ej_idx j = ab->idx[k];
+      const ej_real dx[3] = {B->x[3 * j] - A->x[3 * i], B->x[3 * j + 1] - A->x[3 * i + 1],
+                             B->x[3 * j + 2] - A->x[3 * i + 2]};
+      const ej_real r2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
+      const ej_real hbar = 0.5 * (h_i + cpl_h(B, j));
+      if (r2 >= 4.0 * hbar * hbar || r2 <= 0) continue;
+      const ej_real rr = sqrt(r2), ih = 1.0 / hbar;
+      const ej_real dwdr = sigma_k * sph_inv_pow(ih, dim + 1) * sph_kernel_df(P->kernel, dim, rr * ih);
+      /* grad_i W = dW/dr (x_i - x_j)/r = -dW/dr dx / r */
+      const ej_real g[3] = {-dwdr * dx[0] / rr, -dwdr * dx[1] / rr, -dwdr * dx[2] / rr};
+      const ej_real dv[3] = {B->v[3 * j] - A->v[3 * i], B->v[3 * j + 1] - A->v[3 * i + 1],
+                             B->v[3 * j + 2] - A->v[3 * i + 2]}; /* v_j - v_i */
+      const ej_real vx = dv[0] * dx[0] + dv[1] * dx[1] + dv[2] * dx[2];
+      ej_real pi = 0;
+      if (vx < 0) { /* approaching */
+        const ej_real mu = hbar * vx / (r2 + P->eta * P->eta * hbar * hbar);
+        const ej_real cbar = 0.5 * (c_i + cpl_c(B, j)), rbar = 0.5 * (rho_i + B->rho[j]);
+        pi = (-P->alpha * cbar * mu + P->beta * mu * mu) / rbar;
+      }
+      ej_real sj[6];
+      cpl_stress(B, j, sj);
+      const ej_real irho2_j = 1.0 / (B->rho[j] * B->rho[j]), mj = B->m[j];
+      ej_real S[9], Si[9];
+      {
+        ej_real t[6];
+        for (int q = 0; q < 6; ++q) t[q] = si[q] * irho2_i + sj[q] * irho2_j;
+        t[0] -= pi, t[1] -= pi, t[2] -= pi;
+        ej_s6_to_m3(S, t);
+        for (int q = 0; q < 6; ++q) t[q] = si[q] * irho2_i;
+        t[0] -= 0.5 * pi, t[1] -= 0.5 * pi, t[2] -= 0.5 * pi;
+        ej_s6_to_m3(Si, t);
+      }
+      ej_real Sg[3], Sig[3];
+      ej_m3_apply(Sg, S, g);
+      ej_m3_apply(Sig, Si, g);
+      for (int q = 0; q < 3; ++q) acc[q] += mj * Sg[q];
+      /* (v_i - v_j) = -dv */
+      de += mj * (dv[0] * Sig[0] + dv[1] * Sig[1] + dv[2] * Sig[2]);
+      drho -= (mj / B->rho[j]) * (dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2]);
+    }
+    for (int q = 0; q < 3; ++q) A->a[3 * i + q] += acc[q];
+    if (A->e_dot) A->e_dot[i] += de;
+    if (A->rho_dot) A->rho_dot[i] += rho_i * drho;
+  }
+}
+
+#endif /* EJ_CONTINUUM_PAIR_H */
