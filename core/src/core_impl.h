@@ -111,6 +111,9 @@ ej_err ej_params_apply(const ej_param *table, void *config, const ej_node *map, 
 ej_err ej_params_defaults(const ej_param *table, void *config);
 /* Human-readable table (ejecta describe). */
 ej_err ej_params_describe(ej_buf *out, const ej_param *table, int indent);
+/* Markdown table of a table (name, type, unit, default, bounds, choices, doc; nested blocks as
+ * block.key rows): `ejecta describe --markdown`, docs/plugins/. */
+ej_err ej_params_markdown(ej_buf *out, const ej_param *table);
 /* JSON Schema object ("type":"object","properties":{...}) for a table. */
 ej_err ej_params_schema(ej_buf *out, const ej_param *table, const char *const *extra_keys);
 
@@ -217,6 +220,9 @@ typedef struct ej_scene {
   ej_real t_end, cfl, dt_fixed; /* dt_fixed 0 = adaptive */
   ej_real dt_max;               /* 0 = none */
   int64_t max_steps;            /* 0 = none */
+  ej_real dt_min;               /* watchdog floor of the adaptive step; 0 = none */
+  ej_shape *domain;             /* watchdog: particles must stay inside; NULL = anywhere */
+  ej_loc domain_loc;
   /* output */
   char *output_file;
   ej_loc output_loc;

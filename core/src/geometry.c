@@ -791,6 +791,13 @@ ej_err ej_points_read_csv(const char *path, int dim, ej_real spacing, const ej_l
                 : have[EJ_COL_VOL]   ? pow(val[EJ_COL_VOL], 1.0 / dim)
                                      : spacing;
     ej_real vol = have[EJ_COL_VOL] ? val[EJ_COL_VOL] : pow(s, dim);
+    /* A spacing of 1e-200 or 1e200 m is a number, but its cube is no volume (found by fuzzing). */
+    if (!(vol > 0 && isfinite(vol) && s > 0 && isfinite(s))) {
+      ej_loc at = {path, line, 1};
+      rc = ej_error_input(&at, "particle volume %g m^%d and spacing %g m out of range (spacing^%d must be a positive "
+                               "finite number)", vol, dim, s, dim);
+      goto out_free_points;
+    }
     EJ_TRY_GOTO(rc, ej_points_push(out, &cap, x, vol, s), out_free_points);
   }
   if (out->n == 0) {

@@ -436,6 +436,61 @@ ej_err ej_params_describe(ej_buf *out, const ej_param *table, int indent)
   return EJ_OK;
 }
 
+/* Text for a Markdown table cell: '|' escaped, newlines as spaces. */
+static ej_err ej_md_cell(ej_buf *out, const char *s)
+{
+  if (!s || !*s) return ej_buf_printf(out, " - |");
+  EJ_TRY(ej_buf_printf(out, " "));
+  for (const char *c = s; *c; ++c) {
+    if (*c == '|') EJ_TRY(ej_buf_printf(out, "\\|"));
+    else if (*c == '\n') EJ_TRY(ej_buf_printf(out, " "));
+    else EJ_TRY(ej_buf_printf(out, "%c", *c));
+  }
+  return ej_buf_printf(out, " |");
+}
+
+static ej_err ej_md_rows(ej_buf *out, const ej_param *table, const char *prefix)
+{
+  for (const ej_param *p = table; p && p->name; ++p) {
+    ej_describe_row r;
+    ej_describe_fill(p, &r);
+    const char *unit = ej_param_unit(p);
+    static const char *const types[] = {"number", "integer", "bool", "enum", "text", "numbers", "block"};
+    char type[32], name[160], choices[160] = "";
+    snprintf(type, sizeof type, "%s", p->type <= EJ_PT_BLOCK ? types[p->type] : "?");
+    if (p->type == EJ_PT_REAL_ARRAY) snprintf(type, sizeof type, "number[%d]", p->count);
+    snprintf(name, sizeof name, "`%s%s`", prefix, p->name);
+    if (p->type == EJ_PT_ENUM) ej_join(choices, sizeof choices, p->choices, ej_choice_count(p->choices), ", ");
+    EJ_TRY(ej_buf_printf(out, "|"));
+    EJ_TRY(ej_md_cell(out, name));
+    EJ_TRY(ej_md_cell(out, type));
+    EJ_TRY(ej_md_cell(out, p->type == EJ_PT_REAL || p->type == EJ_PT_REAL_ARRAY ? (ej_unit_is_plain(unit) ? "1" : unit)
+                                                                                 : ""));
+    EJ_TRY(ej_md_cell(out, r.def));
+    EJ_TRY(ej_md_cell(out, r.range));
+    EJ_TRY(ej_md_cell(out, choices));
+    char doc[1024];
+    snprintf(doc, sizeof doc, "%s%s", (p->flags & EJ_PF_EXPERT) ? "(expert) " : "", p->doc ? p->doc : "");
+    EJ_TRY(ej_md_cell(out, doc));
+    EJ_TRY(ej_buf_printf(out, "\n"));
+    if (p->type == EJ_PT_BLOCK) {
+      char sub[160];
+      snprintf(sub, sizeof sub, "%s%s.", prefix, p->name);
+      EJ_TRY(ej_md_rows(out, p->sub, sub));
+    }
+  }
+  return EJ_OK;
+}
+
+ej_err ej_params_markdown(ej_buf *out, const ej_param *table)
+{
+  EJ_ENSURE(out, EJ_ERR_ARG, "NULL buffer");
+  if (ej_param_count(table) == 0) return ej_buf_printf(out, "No parameters.\n");
+  EJ_TRY(ej_buf_printf(out, "| name | type | unit | default | bounds | choices | description |\n"
+                            "|---|---|---|---|---|---|---|\n"));
+  return ej_md_rows(out, table, "");
+}
+
 /* ------------------------------------------------------------------ JSON Schema */
 
 static ej_err ej_json_str(ej_buf *b, const char *s)

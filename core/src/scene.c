@@ -16,6 +16,7 @@
 typedef struct ej_time_cfg {
   ej_real end, cfl, dt, dt_max;
   int64_t max_steps;
+  ej_real dt_min;
 } ej_time_cfg;
 
 typedef struct ej_neigh_cfg {
@@ -38,6 +39,9 @@ static const ej_param ej_time_params[] = {
     EJ_PARAM_REAL(ej_time_cfg, dt_max, "s", 0, 0, 0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN,
                   "Upper bound of the adaptive step; omitted = none."),
     EJ_PARAM_INT(ej_time_cfg, max_steps, 0, 0, 0, EJ_PF_HAS_MIN, "Stop after this many steps; 0 = no limit."),
+    EJ_PARAM_REAL(ej_time_cfg, dt_min, "s", 0, 0, 0, EJ_PF_HAS_MIN,
+                  "Watchdog floor of the adaptive step: below it the run stops (exit 1) naming the limiting set "
+                  "and particle; 0 = only a zero or non-finite step stops it."),
     {0}};
 
 static const ej_param ej_neigh_params[] = {
@@ -54,7 +58,7 @@ static const ej_param ej_top_params[] = {
     EJ_PARAM_BLOCK(ej_top_cfg, neighbours, ej_neigh_params, ej_neigh_cfg, 0, "Neighbour search settings."),
     {0}};
 static const char *const ej_top_manual[] = {"output", "gravity", "materials", "sets", "interactions", "boundaries",
-                                            NULL};
+                                            "domain", NULL};
 
 typedef struct ej_output_cfg {
   const char *file;
@@ -314,11 +318,6 @@ static ej_err ej_parse_material(ej_loader *L, int i, const ej_node *mats)
   EJ_TRY(ej_apply_with(ej_mat_params, &cfg, node, what, ej_mat_manual, strength, NULL));
   m->rho0 = cfg.rho0;
   if (eos) EJ_TRY(ej_parse_eos(L, m, eos));
-  if (!m->eos_ops && !m->mat_ops)
-    return ej_error_input(&m->loc,
-                          "material '%s' needs an equation of state (eos: {model: ...}) or a strength model "
-                          "(model: ...)",
-                          m->name);
   if (m->mat_ops && m->mat_ops->needs_eos && !m->eos_ops)
     return ej_error_input(&m->loc, "material '%s': strength model '%s' needs an equation of state (eos: {model: ...})",
                           m->name, m->mat_ops->name);
@@ -441,6 +440,16 @@ static ej_err ej_parse_set(ej_loader *L, int i)
     return ej_error_input(&mat->loc, "set '%s' uses undefined material '%s'%s", s->name, matname,
                           sc->n_materials ? "" : " (the scene has no 'materials')");
   }
+
+  /* A material without EOS and strength model serves only methods with their own constants. */
+  const ej_scene_material *sm = &sc->materials[s->material];
+  const bool self = s->method_ops->struct_size >= offsetof(ej_method_ops, self_constitutive) + sizeof(bool) &&
+                    s->method_ops->self_constitutive;
+  if (!sm->eos_ops && !sm->mat_ops && !self)
+    return ej_error_input(&sm->loc,
+                          "material '%s' needs an equation of state (eos: {model: ...}) or a strength model "
+                          "(model: ...) for set '%s' (method %s)",
+                          sm->name, s->name, s->method_ops->name);
 
   const ej_node *shape = ej_node_get(node, "shape"), *file = ej_node_get(node, "file");
   if (shape && file)
@@ -702,6 +711,13 @@ static ej_err ej_scene_parse(ej_loader *L)
   sc->dt_fixed = top.time.dt;
   sc->dt_max = top.time.dt_max;
   sc->max_steps = top.time.max_steps;
+  sc->dt_min = top.time.dt_min;
+  if (sc->dt_min > 0 && (sc->dt_fixed > 0 || (sc->dt_max > 0 && sc->dt_min >= sc->dt_max))) {
+    const ej_node *tn = ej_node_get(root, "time");
+    return ej_error_input(ej_node_key_loc(tn, "dt_min"), "time: dt_min = %g s %s", sc->dt_min,
+                          sc->dt_fixed > 0 ? "bounds the adaptive step and cannot go with a fixed dt"
+                                           : "must be smaller than dt_max");
+  }
   sc->skin = top.neighbours.skin;
 
   EJ_TRY(ej_parse_output(L, ej_node_get(root, "output")));
@@ -738,6 +754,13 @@ static ej_err ej_scene_parse(ej_loader *L)
   }
   L->env = (ej_shape_env){.lookup = ej_lookup_set_shape, .ctx = L, .names = L->set_names, .n_names = sc->n_sets};
   for (int i = 0; i < sets->n; ++i) EJ_TRY(ej_parse_set(L, i));
+
+  /* Watchdog: every particle must stay inside the domain shape (any shape, set names in minus). */
+  const ej_node *dom = ej_node_get(root, "domain");
+  if (dom) {
+    EJ_TRY(ej_region(L, dom, &sc->domain));
+    sc->domain_loc = dom->loc;
+  }
 
   const ej_node *inter = ej_node_get(root, "interactions");
   if (inter) {
@@ -839,6 +862,7 @@ void ej_scene_free(ej_scene *sc)
   ej_free(sc->sets);
   for (int k = 0; k < sc->n_bcs; ++k) ej_shape_destroy(sc->bcs[k].region);
   ej_free(sc->bcs);
+  ej_shape_destroy(sc->domain);
   for (int k = 0; k < sc->n_interactions; ++k) ej_free(sc->interactions[k].config);
   ej_free(sc->interactions);
   for (int k = 0; k < sc->n_output_fields; ++k) ej_free(sc->output_fields[k]);
@@ -1146,6 +1170,8 @@ static ej_err ej_schema_compact(ej_registry *reg, ej_buf *b)
   EJ_TRY(ej_buf_printf(b, ",{\"properties\":{\"fields\":{\"type\":\"array\",\"items\":{\"type\":\"string\"},"
                           "\"description\":\"Fields written to frames; default every output field.\"}}}]},"
                           "\"gravity\":{\"$ref\":\"#/$defs/vector\",\"description\":\"Gravity (m/s^2).\"},"
+                          "\"domain\":{\"$ref\":\"#/$defs/shape\",\"description\":\"Watchdog: a particle "
+                          "leaving this shape stops the run (exit 1).\"},"
                           "\"materials\":{\"type\":\"object\",\"additionalProperties\":{\"$ref\":"
                           "\"#/$defs/material\"}},"
                           "\"sets\":{\"type\":\"object\",\"minProperties\":1,\"additionalProperties\":{\"$ref\":"

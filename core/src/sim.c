@@ -106,6 +106,19 @@ static ej_err ej_sim_scratch(ej_sim *sim, const ej_set *s)
   return EJ_OK;
 }
 
+/* A plugin's create refused its input (EJ_ERR_INPUT without a place): the message is tied to the
+ * scene node that configured it, so the user sees FILE:LINE:COL like every other input error. */
+static ej_err ej_located(ej_err rc, const ej_loc *loc)
+{
+  if (rc != EJ_ERR_INPUT) return rc;
+  const ej_error_frame *cause = ej_error_cause();
+  if (!cause || cause->where.file) return rc;
+  char msg[EJ_ERROR_MSG_LEN];
+  snprintf(msg, sizeof msg, "%s", cause->msg);
+  ej_error_clear();
+  return ej_error_input(loc, "%s", msg);
+}
+
 /* ------------------------------------------------------------------ models */
 
 static ej_err ej_models_create(ej_sim *sim)
@@ -284,6 +297,19 @@ static ej_err ej_sets_create(ej_sim *sim)
       EJ_TRY(eos->ops->declare(eos->config, sc->dimension, &d));
       s->nbr_config = keep;
     }
+    /* Prescribed velocities do work: its power is kept per particle (now and a step ago) for
+     * the trapezoidal external work of the energy budget; checkpointed like any field. */
+    for (int b = 0; b < sc->n_bcs; ++b)
+      if (sc->bcs[b].kind == EJ_BC_VELOCITY && ej_bc_applies(&sc->bcs[b], i)) {
+        static const ej_field_decl pw[] = {
+            {.name = "bc_power", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "W",
+             .doc = "power of the prescribed-velocity constraint on the particle"},
+            {.name = "bc_power_old", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "W",
+             .doc = "bc_power one step earlier"}};
+        EJ_TRY(ej_set_add_field(s, &pw[0], NULL));
+        EJ_TRY(ej_set_add_field(s, &pw[1], NULL));
+        break;
+      }
     const ej_material *mat = s->model->mat;
     for (int k = 0; mat && k < mat->ops->n_hist; ++k) {
       const ej_field_decl hd = {.name = mat->ops->hist_names[k], .kind = EJ_SCALAR, .flags = EJ_FIELD_OUTPUT,
@@ -309,7 +335,7 @@ static ej_err ej_sets_create(ej_sim *sim)
       EJ_TRY(mat->ops->init_hist(mat->state, s->n, hist));
     }
     if (eos && EJ_HAS_OP(eos->ops, ej_eos_ops, setup)) EJ_TRY(eos->ops->setup(eos->state, s));
-    EJ_TRY(s->mops->create(s->mconfig, s, s->model, &s->mstate));
+    EJ_TRY(ej_located(s->mops->create(s->mconfig, s, s->model, &s->mstate), &ss->loc));
     if (s->nbr_config != EJ_NBR_NONE) EJ_TRY(ej_nbrlist_create(&s->list));
   }
   return EJ_OK;
@@ -639,14 +665,26 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
 {
   (void)ctx, (void)c;
   ej_real *a = s->fields[s->f_a].data;
-  const ej_real *g = sim->scene->gravity;
+  const ej_real *g = sim->scene->gravity, *m = s->fields[s->f_m].data;
+  ej_real *pw = ej_set_field(s, "bc_power"), *pw_old = ej_set_field(s, "bc_power_old");
   for (ej_idx i = r.begin; i < r.end; ++i) {
     a[3 * i] += g[0], a[3 * i + 1] += g[1], a[3 * i + 2] += g[2];
+    ej_real power = 0;
     uint32_t mask = s->bc_mask[i];
     for (int b = 0; mask; ++b, mask >>= 1)
-      if (mask & 1u)
+      if (mask & 1u) {
+        const ej_scene_bc *bc = &sim->scene->bcs[b];
         for (int k = 0; k < 3; ++k)
-          if (sim->scene->bcs[b].comp[k]) a[3 * i + k] = 0;
+          if (bc->comp[k]) {
+            /* the constraint's force m (0 - a) moving at the prescribed velocity */
+            if (bc->kind == EJ_BC_VELOCITY) power -= m[i] * a[3 * i + k] * bc->velocity[k];
+            a[3 * i + k] = 0;
+          }
+      }
+    if (pw) {
+      pw_old[i] = pw[i];
+      pw[i] = power;
+    }
   }
   return EJ_OK;
 }
@@ -708,6 +746,52 @@ static ej_err ej_dt_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range
   return EJ_OK;
 }
 
+/* Watchdog on the step: it fell to zero, became non-finite or went below time.dt_min. Finds what
+ * limits it (serially, per particle: the run is over) and names the set and particle. */
+static ej_err ej_dt_collapse(ej_sim *sim, ej_real dt)
+{
+  const ej_scene *sc = sim->scene;
+  const ej_set *ws = NULL;
+  const char *winter = NULL;
+  ej_idx wi = -1;
+  ej_real wdt = INFINITY;
+  const int depth = ej_error_count();
+  for (int k = 0; k < sim->n_sets; ++k) {
+    ej_set *s = sim->sets[k];
+    for (ej_idx i = 0; i < s->n; ++i) {
+      ej_real d = INFINITY;
+      if (s->mops->stable_dt(s->mstate, s, (ej_range){i, i + 1}, &d) != EJ_OK) continue;
+      if ((isnan(d) && !isnan(wdt)) || d < wdt) ws = s, wi = i, wdt = d;
+    }
+  }
+  for (int k = 0; k < sim->n_inter; ++k) {
+    const ej_inter *in = &sim->inter[k];
+    ej_real d = INFINITY;
+    if (in->ops->stable_dt && in->ops->stable_dt(in->state, in->a, in->b, &d) == EJ_OK && d < wdt)
+      winter = in->ops->name, wdt = d;
+  }
+  ej_error_truncate(depth);
+  char why[80];
+  if (isfinite(dt) && dt > 0) {
+    snprintf(why, sizeof why, "below time.dt_min = %.6g s", sc->dt_min);
+    sim->dt = dt; /* the checkpoint at the failure continues with this step */
+  } else {
+    snprintf(why, sizeof why, "collapsed");
+  }
+  if (winter && !(ws && isnan(wdt)))
+    EJ_FAIL(EJ_ERR_NUMERIC, "watchdog: time step %.6g s %s at step %lld, t = %.6g s, limited by interaction '%s'", dt,
+            why, (long long)sim->step, sim->t, winter);
+  if (!ws)
+    EJ_FAIL(EJ_ERR_NUMERIC, "watchdog: time step %.6g s %s at step %lld, t = %.6g s", dt, why, (long long)sim->step,
+            sim->t);
+  const ej_real *x = ws->fields[ws->f_x].data;
+  const int32_t *id = ws->fields[ws->f_id].data;
+  EJ_FAIL(EJ_ERR_NUMERIC,
+          "watchdog: time step %.6g s %s at step %lld, t = %.6g s, limited by set '%s', particle id %d at "
+          "(%.6g, %.6g, %.6g) (its stable step %.6g s)",
+          dt, why, (long long)sim->step, sim->t, ws->name, id[wi], x[3 * wi], x[3 * wi + 1], x[3 * wi + 2], wdt);
+}
+
 static ej_err ej_next_dt(ej_sim *sim)
 {
   const ej_scene *sc = sim->scene;
@@ -731,8 +815,7 @@ static ej_err ej_next_dt(ej_sim *sim)
     dt = ej_comm_min(dt) * sc->cfl;
   }
   if (sc->dt_max > 0 && dt > sc->dt_max) dt = sc->dt_max;
-  EJ_ENSURE(isfinite(dt) && dt > 0, EJ_ERR_NUMERIC, "time step collapsed to %g s at step %lld, t = %g s", dt,
-            (long long)sim->step, sim->t);
+  if (!(isfinite(dt) && dt > 0) || (sc->dt_fixed <= 0 && dt < sc->dt_min)) return ej_dt_collapse(sim, dt);
   sim->dt = dt;
   return EJ_OK;
 }
@@ -838,12 +921,16 @@ static ej_err ej_energy_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_r
   return EJ_OK;
 }
 
-/* Work of gravity over the step, exact for the mid-step velocity. */
+/* Work of gravity over the step (exact for the mid-step velocity) and of prescribed velocities
+ * (trapezoidal in the constraint power at the two ends of the step). */
 static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
 {
   (void)ctx;
   const ej_real *vh = ej_set_field(s, "v_half"), *m = s->fields[s->f_m].data, *g = sim->scene->gravity;
-  ej_real w = 0;
+  const ej_real *pw = ej_set_field(s, "bc_power"), *pw_old = ej_set_field(s, "bc_power_old");
+  ej_real w = 0, wbc = 0;
+  if (pw)
+    for (ej_idx i = r.begin; i < r.end; ++i) wbc += 0.5 * (pw_old[i] + pw[i]);
   for (ej_idx i = r.begin; i < r.end; ++i) {
     ej_real gv = 0;
     uint32_t mask = s->bc_mask[i];
@@ -855,7 +942,7 @@ static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
       if (!fixed[k]) gv += g[k] * vh[3 * i + k];
     w += m[i] * gv;
   }
-  sim->chunk_scratch[c * EJ_NRED] = w * sim->dt;
+  sim->chunk_scratch[c * EJ_NRED] = (w + wbc) * sim->dt;
   return EJ_OK;
 }
 
@@ -950,7 +1037,9 @@ static ej_err ej_watch_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ra
 {
   (void)ctx;
   ej_real bad_p = -1, bad_f = -1;
-  for (ej_idx p = r.begin; p < r.end && bad_p < 0; ++p)
+  const ej_shape *dom = sim->scene->domain;
+  const ej_real *x = s->fields[s->f_x].data;
+  for (ej_idx p = r.begin; p < r.end && bad_p < 0; ++p) {
     for (int k = 0; k < s->n_fields && bad_p < 0; ++k) {
       const ej_field *f = &s->fields[k];
       if (f->kind == EJ_INT || (f->flags & EJ_FIELD_NO_GHOST)) continue;
@@ -962,6 +1051,9 @@ static ej_err ej_watch_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ra
           break;
         }
     }
+    /* bad_f = -2: a particle outside the scene's domain. */
+    if (bad_p < 0 && dom && !ej_shape_contains(dom, x + 3 * (size_t)p)) bad_p = p, bad_f = -2;
+  }
   sim->chunk_scratch[c * EJ_NRED] = bad_p;
   sim->chunk_scratch[c * EJ_NRED + 1] = bad_f;
   return EJ_OK;
@@ -977,15 +1069,63 @@ static ej_err ej_watchdog(ej_sim *sim)
     for (int64_t c = 0; c < nch; ++c) {
       if (sim->chunk_scratch[c * EJ_NRED] < 0) continue;
       ej_idx bad = (ej_idx)sim->chunk_scratch[c * EJ_NRED];
-      const ej_field *f = &s->fields[(int)sim->chunk_scratch[c * EJ_NRED + 1]];
-      const ej_real *x = s->fields[s->f_x].data;
+      const int fk = (int)sim->chunk_scratch[c * EJ_NRED + 1];
+      const ej_real *x = s->fields[s->f_x].data, *v = s->fields[s->f_v].data;
       const int32_t *id = s->fields[s->f_id].data;
+      if (fk == -2)
+        EJ_FAIL(EJ_ERR_NUMERIC,
+                "watchdog: particle left the domain (%s:%d) at step %lld, t = %.6g s, set '%s', particle id %d at "
+                "(%.6g, %.6g, %.6g), velocity (%.6g, %.6g, %.6g) m/s",
+                sim->scene->domain_loc.file ? sim->scene->domain_loc.file : "scene", sim->scene->domain_loc.line,
+                (long long)sim->step, sim->t, s->name, id[bad], x[3 * bad], x[3 * bad + 1], x[3 * bad + 2], v[3 * bad],
+                v[3 * bad + 1], v[3 * bad + 2]);
+      const ej_field *f = &s->fields[fk];
       EJ_FAIL(EJ_ERR_NUMERIC,
               "watchdog: non-finite '%s' at step %lld, t = %.6g s, set '%s', particle id %d at (%.6g, %.6g, %.6g)",
               f->name, (long long)sim->step, sim->t, s->name, id[bad], x[3 * bad], x[3 * bad + 1], x[3 * bad + 2]);
     }
   }
   return EJ_OK;
+}
+
+/* After a numerical failure: a frame and a checkpoint of the state at the failure, so that the
+ * output shows what went wrong and `--restart NAME.partial` can read it. */
+static bool ej_fail_keep(ej_sim *sim)
+{
+  if (!sim->out) return false;
+  const int depth = ej_error_count();
+  bool ok = ej_output_frame(sim->out, sim) == EJ_OK;
+  if (ok) sim->frame++;
+  ok = ok && ej_output_checkpoint(sim->out, sim) == EJ_OK;
+  ej_error_truncate(depth);
+  return ok;
+}
+
+/* ej_output_close(out, true) finished the file under its final name; a failed run must not leave
+ * a file that looks whole, so it goes back to NAME.partial and the XDMF sidecar is removed. */
+static void ej_fail_rename(ej_sim *sim, ej_err close_rc)
+{
+  if (close_rc != EJ_OK) return;
+  const char *path = sim->out_path, *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
+  const size_t n = strlen(path);
+  char *partial = ej_malloc(n + sizeof ".partial"), *xdmf = ej_malloc(n + sizeof ".xdmf");
+  if (partial && xdmf) {
+    memcpy(partial, path, n);
+    memcpy(partial + n, ".partial", sizeof ".partial");
+    /* the sidecar's name as output.c forms it: extension replaced by .xdmf */
+    size_t stem = (!dot || (slash && dot < slash) || dot == (slash ? slash + 1 : path) || !strcmp(dot, ".xdmf"))
+                      ? n : (size_t)(dot - path);
+    memcpy(xdmf, path, stem);
+    memcpy(xdmf + stem, ".xdmf", sizeof ".xdmf");
+    if (rename(path, partial) == 0) {
+      remove(xdmf);
+      fprintf(stderr, "ejecta: the state at the failure (step %lld, t = %.6g s: last frame and checkpoint) is in "
+                      "'%s'; 'ejecta run SCENE --restart %s' reads it\n",
+              (long long)sim->step, sim->t, partial, partial);
+    }
+  }
+  ej_free(partial);
+  ej_free(xdmf);
 }
 
 /* ------------------------------------------------------------------ output scheduling */
@@ -1047,7 +1187,7 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
       if (EJ_HAS_OP(in->ops, ej_interaction_ops, both_ways)) EJ_TRY_GOTO(rc, ej_nbrlist_create(&in->list_ba), out_destroy);
       in->a->in_interaction = in->b->in_interaction = true;
     }
-    EJ_TRY_GOTO(rc, in->ops->create(in->config, in->a, in->b, &in->state), out_destroy);
+    EJ_TRY_GOTO(rc, ej_located(in->ops->create(in->config, in->a, in->b, &in->state), &si->loc), out_destroy);
   }
   const char *path = opts && opts->output ? opts->output : scene->output_file;
   sim->out_path = ej_strdup(path);
@@ -1140,8 +1280,11 @@ ej_err ej_sim_run(ej_sim *sim)
   }
 out:
   if (sim->progress) ej_progress(sim, t0, step0, psteps, true);
-  ej_err crc = ej_output_close(sim->out, rc == EJ_OK);
+  /* A numerical failure keeps its state (a last frame and a checkpoint) in NAME.partial. */
+  const bool keep = rc == EJ_ERR_NUMERIC && ej_fail_keep(sim);
+  ej_err crc = ej_output_close(sim->out, rc == EJ_OK || keep);
   sim->out = NULL;
+  if (keep) ej_fail_rename(sim, crc);
   if (rc == EJ_OK) rc = crc;
   return rc;
 }

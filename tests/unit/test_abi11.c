@@ -458,6 +458,44 @@ START_TEST(test_reference_ghosts_and_bond_flags)
 }
 END_TEST
 
+/* A piston (prescribed velocity) compressing a gas: the constraint's work enters the budget. */
+const ej_plugin_info *ej_plugin_sph_info(void);
+const ej_plugin_info *ej_plugin_ideal_gas_info(void);
+
+START_TEST(test_prescribed_velocity_work)
+{
+  run r;
+  memset(&r, 0, sizeof r);
+  snprintf(r.dir, sizeof r.dir, "/tmp/ej_abi11_XXXXXX");
+  ck_assert_ptr_nonnull(mkdtemp(r.dir));
+  snprintf(r.scene, sizeof r.scene, "%s/s.yaml", r.dir);
+  snprintf(r.out, sizeof r.out, "%s/out.h5", r.dir);
+  FILE *f = fopen(r.scene, "w");
+  ck_assert_ptr_nonnull(f);
+  fprintf(f,
+          "ejecta: 1\ndimension: 1\ntime: {end: 2e-3, cfl: 0.3}\noutput: {file: %s}\n"
+          "materials:\n  air: {rho0: 1.2, eos: {model: ideal_gas, gamma: 1.4}}\n"
+          "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0], max: [1]}}, spacing: 0.01, p: 1e5}\n"
+          "boundaries:\n  - {set: gas, region: {box: {min: [0], max: [0.05]}}, velocity: [20]}\n"
+          "  - symmetry: {point: [1], normal: [-1]}\n",
+          r.out);
+  fclose(f);
+  ck_assert_int_eq(ej_registry_create(&r.reg), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(r.reg, ej_plugin_sph_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(r.reg, ej_plugin_ideal_gas_info()), EJ_OK);
+  ck_assert_int_eq(ej_scene_load(r.scene, r.reg, &r.sc), EJ_OK);
+  ej_run_opts o = {.threads = 1};
+  ck_assert_int_eq(ej_sim_create(r.sc, r.reg, &o, &r.sim), EJ_OK);
+  ck_assert_int_eq(ej_sim_run(r.sim), EJ_OK);
+  const ej_energy *E = &r.sim->energy;
+  /* the piston pushes at 20 m/s against ~1e5 Pa: work ~ p A v t = 1e5 * 20 * 2e-3 = 4e3 J/m^2 */
+  fprintf(stderr, "piston: external work %.6g J, balance %.3e J\n", E->external, E->balance);
+  ck_assert_double_gt(E->external, 3e3);
+  ck_assert_double_lt(fabs(E->balance), 1e-3 * E->external);
+  run_close(&r);
+}
+END_TEST
+
 static Suite *abi11_suite(void)
 {
   Suite *s = suite_create("abi11");
@@ -466,6 +504,7 @@ static Suite *abi11_suite(void)
   tcase_add_test(tc, test_eos_state_and_history);
   tcase_add_test(tc, test_interactions_and_work);
   tcase_add_test(tc, test_reference_ghosts_and_bond_flags);
+  tcase_add_test(tc, test_prescribed_velocity_work);
   suite_add_tcase(s, tc);
   return s;
 }

@@ -397,6 +397,9 @@ typedef struct ej_method_ops {
   int (*pass_count)(const void *state);
   /* --- ABI 1.1. Per-step series (serial, after post_step). May be NULL. */
   ej_err (*report)(void *state, const ej_set *set, ej_series_value *out, int max, int *n);
+  /* The method carries its own constitutive constants (bond-based PD): its sets' material may
+   * give only rho0. Otherwise a material needs an EOS or a strength model. */
+  bool self_constitutive;
 } ej_method_ops;
 
 /* ------------------------------------------------------------------ interactions */

@@ -10,14 +10,19 @@
 
 typedef struct continuum_config {
   int kernel;
+  int form;
   ej_real alpha, beta, eta, h_factor;
 } continuum_config;
 
 static const char *const continuum_kernels[] = {"cubic_spline", "wendland_c2", NULL};
+static const char *const continuum_forms[] = {"volume", "standard", NULL};
 
 static const ej_param continuum_params[] = {
     EJ_PARAM_ENUM(continuum_config, kernel, continuum_kernels, "cubic_spline",
                   "Kernel of the interface pair terms (support 2 hbar, hbar the mean smoothing length of the pair)."),
+    EJ_PARAM_ENUM(continuum_config, form, continuum_forms, "volume",
+                  "Pair form: volume, (sigma_i + sigma_j)/(rho_i rho_j) (Colagrossi & Landrini 2003; robust at "
+                  "density ratios over 1000), or standard, sigma_i/rho_i^2 + sigma_j/rho_j^2."),
     EJ_PARAM_REAL(continuum_config, alpha, "1", 1.0, 0, 10, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Monaghan artificial viscosity, linear coefficient, on approaching interface pairs."),
     EJ_PARAM_REAL(continuum_config, beta, "1", 2.0, 0, 20, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
@@ -40,7 +45,7 @@ static ej_err continuum_create(const void *config, ej_set *a, ej_set *b, void **
   EJ_ENSURE(b && a != b, EJ_ERR_INTERNAL, "continuum: the scene check lets only two different sets through");
   continuum_state *s = ej_calloc(1, sizeof *s);
   EJ_ENSURE(s, EJ_ERR_MEM, "out of memory");
-  s->P = (cpl_params){.kernel = c->kernel, .alpha = c->alpha, .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor};
+  s->P = (cpl_params){.kernel = c->kernel, .form = c->form, .alpha = c->alpha, .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor};
   s->a = a, s->b = b;
   s->h_factor = c->h_factor;
   *state = s;

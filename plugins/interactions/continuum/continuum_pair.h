@@ -8,15 +8,20 @@
  * times the particle's initial spacing vol0^(1/dim)), `rho_dot` and `e_dot` (the interface's
  * share of the continuity and energy equations is added when the set integrates them).
  *
- * Pair terms (SPH form for a stress tensor, e.g. Libersky & Petschek 1991; Monaghan 1992 for
- * the viscosity), with grad_i W = dW/dr(r, hbar) (x_i - x_j) / r and S_ij = sigma_i / rho_i^2 +
- * sigma_j / rho_j^2 - Pi_ij I:
+ * Pair terms with grad_i W = dW/dr(r, hbar) (x_i - x_j) / r, in one of two forms:
+ *   standard (Libersky & Petschek 1991 for a stress tensor):
+ *     S_ij = sigma_i / rho_i^2 + sigma_j / rho_j^2 - Pi_ij I,  E_i = sigma_i / rho_i^2 - Pi_ij/2 I
+ *   volume (default; Colagrossi & Landrini 2003, Eq 2.9, written for a stress tensor): the pair
+ *     force does not grow with the density ratio, which interfaces of explosive products and air
+ *     (ratio > 1000) need:
+ *     S_ij = (sigma_i + sigma_j) / (rho_i rho_j) - Pi_ij I,  E_i = sigma_i / (rho_i rho_j) - Pi_ij/2 I
  *   dv_i/dt   += sum_j m_j S_ij grad_i W
- *   de_i/dt   += -sum_j m_j (sigma_i / rho_i^2 - Pi_ij / 2 I) : ((v_i - v_j) (x) grad_i W)
+ *   de_i/dt   += -sum_j m_j E_i : ((v_i - v_j) (x) grad_i W)
  *   drho_i/dt += rho_i sum_j (m_j / rho_j) (v_i - v_j) . grad_i W
- * S_ij is symmetric in i and j and grad_j W = -grad_i W, so the force on j is minus the force
- * on i (momentum to round-off) and the work of the pair equals minus the change of the two
- * internal energies (energy to round-off): each side is computed by its own gather call.
+ * Pi_ij is Monaghan's (1992) viscosity on approaching pairs. S_ij is symmetric in i and j and
+ * grad_j W = -grad_i W, so the force on j is minus the force on i (momentum to round-off), and
+ * E_i + E_j = S_ij, so the work of the pair equals minus the change of the two internal energies
+ * (energy to round-off): each side is computed by its own gather call.
  */
 #ifndef EJ_CONTINUUM_PAIR_H
 #define EJ_CONTINUUM_PAIR_H
@@ -36,8 +41,11 @@ typedef struct cpl_side {
   ej_real h_fallback;  /* h_factor, when the set has no h field */
 } cpl_side;
 
+enum { CPL_FORM_VOLUME = 0, CPL_FORM_STANDARD = 1 };
+
 typedef struct cpl_params {
   int kernel;
+  int form;
   ej_real alpha, beta, eta;
   ej_real h_factor;
 } cpl_params;
@@ -106,6 +114,7 @@ static inline void cpl_gather(const cpl_params *P, const cpl_side *A, const cpl_
     ej_real si[6];
     cpl_stress(A, i, si);
     const ej_real rho_i = A->rho[i], irho2_i = 1.0 / (rho_i * rho_i), h_i = cpl_h(A, i), c_i = cpl_c(A, i);
+    (void)irho2_i;
     ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0;
     for (ej_off k = ab->off[i]; k < ab->off[i + 1]; ++k) {
       const ej_idx j = ab->idx[k];
@@ -132,11 +141,14 @@ static inline void cpl_gather(const cpl_params *P, const cpl_side *A, const cpl_
       const ej_real irho2_j = 1.0 / (B->rho[j] * B->rho[j]), mj = B->m[j];
       ej_real S[9], Si[9];
       {
+        /* standard: sigma_i/rho_i^2 + sigma_j/rho_j^2; volume: (sigma_i + sigma_j)/(rho_i rho_j) */
+        const ej_real wi = P->form == CPL_FORM_STANDARD ? irho2_i : 1.0 / (rho_i * B->rho[j]);
+        const ej_real wj = P->form == CPL_FORM_STANDARD ? irho2_j : wi;
         ej_real t[6];
-        for (int q = 0; q < 6; ++q) t[q] = si[q] * irho2_i + sj[q] * irho2_j;
+        for (int q = 0; q < 6; ++q) t[q] = si[q] * wi + sj[q] * wj;
         t[0] -= pi, t[1] -= pi, t[2] -= pi;
         ej_s6_to_m3(S, t);
-        for (int q = 0; q < 6; ++q) t[q] = si[q] * irho2_i;
+        for (int q = 0; q < 6; ++q) t[q] = si[q] * wi;
         t[0] -= 0.5 * pi, t[1] -= 0.5 * pi, t[2] -= 0.5 * pi;
         ej_s6_to_m3(Si, t);
       }

@@ -1,0 +1,302 @@
+#!/usr/bin/python3
+"""ejecta against LAMMPS on the LAMMPS peridynamics examples (in.peri.pmb, in.peri.lps), in one run.
+
+For each model: runs `lmp -in` on a copy of the system example (never edited) with added output
+(kinetic energy and mean damage every 100 steps, the indenter force every step, a damage dump at
+the end), runs ejecta on examples/peri_<model>.yaml (1 and 2 threads), and prints a table: mean
+damage at the end, KE at the 10 samples, indenter force peak, step-loop wall time,
+particle-steps/s, peak RSS, and ejecta/LAMMPS ratios. Writes lammps_peri.png (damage on the
+slice |z| < lc/2, same view, and KE histories) and results.json next to this script.
+
+Unit conventions: LAMMPS atom_style peri keeps the density as the "mass" and a force density as
+"force", so its KE is sum 1/2 rho v^2 and its indenter force is per unit volume; both are
+multiplied by the particle volume 1.25e-10 m^3 before comparing with ejecta's joules and newtons.
+
+Step-loop time: LAMMPS's "Loop time"; ejecta's wall time minus that of a 1-step run (setup,
+CSV import, family build and output excluded as far as possible).
+
+Usage: run.py [--ejecta PATH] [--big SCALE] [--no-big] [--steps N]
+  --big SCALE: also run the target enlarged SCALE times in every direction (3487 SCALE^3
+  particles; 7 gives 1,196,041) for a few steps with both codes: time per step and memory.
+"""
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, HERE)
+import make_target  # noqa: E402
+
+V = 1.25e-10
+LC = 0.0005
+EXAMPLES = "/usr/share/lammps/examples/peri"
+
+
+def arg(name, default):
+    if name in sys.argv:
+        return sys.argv[sys.argv.index(name) + 1]
+    return default
+
+
+EJECTA = arg("--ejecta", os.path.join(ROOT, "build", "bin", "ejecta"))
+STEPS = int(arg("--steps", "1000"))
+BIG = 0 if "--no-big" in sys.argv else int(arg("--big", "7"))
+
+
+def timed(cmd, cwd, env=None):
+    """Runs cmd under /usr/bin/time -v: (stdout+stderr text, wall s, user s, peak RSS bytes)."""
+    tf = os.path.join(cwd, "time.txt")
+    p = subprocess.run(["/usr/bin/time", "-v", "-o", tf] + cmd, cwd=cwd, env=env,
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    out = p.stdout
+    if p.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed ({p.returncode}):\n{out[-3000:]}")
+    t = open(tf).read()
+    rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", t).group(1)) * 1024
+    user = float(re.search(r"User time \(seconds\): ([\d.]+)", t).group(1))
+    m = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (?:(\d+):)?(\d+):([\d.]+)", t)
+    wall = (int(m.group(1) or 0) * 3600 + int(m.group(2)) * 60 + float(m.group(3)))
+    return out, wall, user, rss
+
+
+# ------------------------------------------------------------------ LAMMPS
+
+def lammps_input(model, steps, dump=True, scale=1, workdir="."):
+    src = open(os.path.join(EXAMPLES, f"in.peri.{model}")).read()
+    extra = ("compute ke all ke\n"
+             "compute dsum all reduce sum c_1\n"
+             "variable dmean equal c_dsum/count(all)\n"
+             "thermo_style custom step c_ke v_dmean f_2[1] f_2[2] f_2[3]\n"
+             "thermo_modify format float %.12g\n"
+             "fix fout all ave/time 1 1 1 f_2[2] file force.txt\n")
+    if dump:
+        extra += f"dump dend all custom {steps} dump.end id x y z c_1\n"
+    src = re.sub(r"^thermo\s+100\s*$", "thermo          100\n" + extra, src, flags=re.M)
+    src = re.sub(r"^run\s+\d+\s*$", f"run             {steps}", src, flags=re.M)
+    if scale > 1:
+        # the same lattice over a cylinder enlarged scale times (radius and height)
+        src = src.replace("cylinder y 0.0 0.0 0.0050 -0.0050 0.0",
+                          f"cylinder y 0.0 0.0 {0.005 * scale:.6g} {-0.005 * scale:.6g} 0.0")
+        assert f"{0.005 * scale:.6g}" in src
+    path = os.path.join(workdir, f"in.{model}")
+    open(path, "w").write(src)
+    return path
+
+
+def parse_lammps(out, workdir, steps):
+    rows, on = [], False
+    for line in out.splitlines():
+        if line.strip().startswith("Step") and "c_ke" in line:
+            on = True
+            continue
+        if on:
+            if line.startswith("Loop time"):
+                on = False
+                continue
+            parts = line.split()
+            try:
+                rows.append([float(v) for v in parts])
+            except ValueError:
+                on = False
+    loop = float(re.search(r"Loop time of ([\d.eE+-]+) on", out).group(1))
+    n = int(re.search(r"with (\d+) atoms", out).group(1))
+    th = np.array(rows)
+    force = None
+    fpath = os.path.join(workdir, "force.txt")
+    if os.path.exists(fpath):
+        force = np.loadtxt(fpath, comments="#")
+    dump = None
+    dpath = os.path.join(workdir, "dump.end")
+    if os.path.exists(dpath):
+        lines = open(dpath).read().splitlines()
+        # last snapshot
+        starts = [k for k, l in enumerate(lines) if l.startswith("ITEM: TIMESTEP")]
+        last = lines[starts[-1]:]
+        na = int(last[3])
+        data = np.array([[float(v) for v in l.split()] for l in last[9:9 + na]])
+        dump = data[np.argsort(data[:, 0])]
+    return dict(thermo=th, loop=loop, n=n, force=force, dump=dump)
+
+
+def lammps_version():
+    p = subprocess.run(["lmp", "-h"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    m = re.search(r"Large-scale Atomic/Molecular Massively Parallel Simulator - (.+)", p.stdout)
+    return m.group(1).strip() if m else "unknown"
+
+
+# ------------------------------------------------------------------ ejecta
+
+def ejecta_scene(model, workdir, steps, csv, fields="[v, damage]", every=1.0e-5):
+    src = open(os.path.join(ROOT, "examples", f"peri_{model}.yaml")).read()
+    src = src.replace("file: peri_target.csv", f"file: {csv}")
+    src = re.sub(r"time: \{end: [^,]+, dt: 1.0e-7\}", f"time: {{end: {steps * 1e-7:.10g}, dt: 1.0e-7}}", src)
+    src = re.sub(r"output: \{[^}]*\}", f"output: {{file: out.h5, every: {every}, fields: {fields}}}", src)
+    path = os.path.join(workdir, f"peri_{model}_{steps}.yaml")
+    open(path, "w").write(src)
+    return path
+
+
+def run_ejecta(scene, workdir, threads, out="out.h5"):
+    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+    return timed([EJECTA, "run", scene, "-o", out, "--threads", str(threads)], workdir, env)
+
+
+def read_ejecta(path):
+    import h5py
+    with h5py.File(path, "r") as f:
+        ser = {k: f["series/energy"][k][()] for k in f["series/energy"]}
+        extra = {}
+        for grp in f["series"]:
+            if grp == "energy":
+                continue
+            for k in f["series"][grp]:
+                extra[f"{grp}/{k}"] = f["series"][grp][k][()]
+        frames = sorted(f["frames"].keys())
+        last = f["frames"][frames[-1]]["target"]
+        x = last["x"][()]
+        d = last["damage"][()]
+        ids = last["id"][()] if "id" in last else None
+    return ser, extra, x, d, ids
+
+
+# ------------------------------------------------------------------ main
+
+def main():
+    if not shutil.which("lmp"):
+        sys.exit("lmp not found: apt-get install -y lammps lammps-examples")
+    if not os.path.exists(EJECTA):
+        sys.exit(f"ejecta not found at {EJECTA} (build it, or pass --ejecta PATH)")
+    version = lammps_version()
+    tmp = tempfile.mkdtemp(prefix="ej_lammps_peri_")
+    csv = os.path.join(tmp, "target.csv")
+    npart = make_target.write(csv, 1)
+    results = {"lammps_version": version, "steps": STEPS, "particles": npart, "models": {}}
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(2, 3, figsize=(15, 9))
+    for row, model in enumerate(("pmb", "lps")):
+        wl = os.path.join(tmp, f"lmp_{model}")
+        os.makedirs(wl)
+        inp = lammps_input(model, STEPS, workdir=wl)
+        out, wall_l, user_l, rss_l = timed(["lmp", "-in", inp, "-log", "log.lammps"], wl)
+        L = parse_lammps(out, wl, STEPS)
+        we = os.path.join(tmp, f"ej_{model}")
+        os.makedirs(we)
+        scene = ejecta_scene(model, we, STEPS, csv)
+        scene1 = ejecta_scene(model, we, 1, csv, every=0)
+        _, wall_e1, _, _ = run_ejecta(scene, we, 1)
+        ser, extra, xe, de, _ = read_ejecta(os.path.join(we, "out.h5"))
+        _, wall_e2, _, rss_e = run_ejecta(scene, we, 2, out="out2.h5")
+        _, wall_s1, _, _ = run_ejecta(scene1, we, 1, out="setup1.h5")
+        _, wall_s2, _, _ = run_ejecta(scene1, we, 2, out="setup2.h5")
+        loop_e1 = max(wall_e1 - wall_s1, 1e-9)
+        loop_e2 = max(wall_e2 - wall_s2, 1e-9)
+        # samples at steps 100, 200, ..., like LAMMPS's thermo 100
+        th = L["thermo"]
+        steps_l = th[:, 0].astype(int)
+        sample = steps_l[steps_l > 0]
+        ke_l = th[steps_l > 0, 1] * V
+        dm_l = th[-1, 2]
+        step_e = ser["step"].astype(int)
+        ke_e = np.array([ser["kinetic"][np.nonzero(step_e == s)[0][0]] for s in sample])
+        dm_e = extra["target/damage_mean"][-1]
+        fy_e = extra["rigid_indenter_0/force_y"]
+        fpk_e = float(np.max(np.abs(fy_e)))
+        fpk_l = float(np.max(np.abs(L["force"][:, 1]))) * V if L["force"] is not None else float("nan")
+        ps_l = L["n"] * STEPS / L["loop"]
+        ps_e1 = npart * STEPS / loop_e1
+        ps_e2 = npart * STEPS / loop_e2
+        res = dict(
+            damage_mean=dict(lammps=dm_l, ejecta=float(dm_e), rel_err=float(abs(dm_e - dm_l) / dm_l) if dm_l else None),
+            ke_steps=sample.tolist(), ke_lammps=ke_l.tolist(), ke_ejecta=ke_e.tolist(),
+            ke_rel_err=(np.abs(ke_e - ke_l) / np.abs(ke_l)).tolist(),
+            force_peak=dict(lammps=fpk_l, ejecta=fpk_e, ratio=fpk_e / fpk_l),
+            loop_s=dict(lammps=L["loop"], ejecta_1t=loop_e1, ejecta_2t=loop_e2),
+            particle_steps_per_s=dict(lammps=ps_l, ejecta_1t=ps_e1, ejecta_2t=ps_e2,
+                                      ratio_1t=ps_e1 / ps_l, ratio_2t_vs_1t=ps_e2 / ps_e1),
+            peak_rss=dict(lammps=rss_l, ejecta=rss_e),
+            energy_balance_end=float(ser["balance"][-1]), ke_end=float(ser["kinetic"][-1]),
+        )
+        results["models"][model] = res
+        # figure: damage on the slice |z| < lc/2, final positions, same view
+        for col, (name, xs, dd) in enumerate((("LAMMPS", L["dump"][:, 1:4], L["dump"][:, 4]), ("ejecta", xe, de))):
+            ax = axes[row, col]
+            sl = np.abs(xs[:, 2]) < 0.5 * LC
+            sc = ax.scatter(xs[sl, 0] * 1e3, xs[sl, 1] * 1e3, c=dd[sl], s=6, vmin=0, vmax=1, cmap="inferno")
+            ax.set_xlim(-9, 9), ax.set_ylim(-8, 3), ax.set_aspect("equal")
+            ax.set_title(f"{model.upper()} {name}: damage, slice |z|<lc/2, t = {STEPS * 1e-7 * 1e6:.0f} us")
+            ax.set_xlabel("x [mm]"), ax.set_ylabel("y [mm]")
+            fig.colorbar(sc, ax=ax, shrink=0.7)
+        ax = axes[row, 2]
+        ax.plot(sample * 1e-1, ke_l * 1e3, "o-", label="LAMMPS (sum 1/2 rho v^2 x V)")
+        ax.plot(ser["t"] * 1e6, ser["kinetic"] * 1e3, "-", label="ejecta")
+        ax.set_xlabel("t [us]"), ax.set_ylabel("kinetic energy [mJ]"), ax.legend()
+        ax.set_title(f"{model.upper()}: kinetic energy")
+    fig.tight_layout()
+    fig.savefig(os.path.join(HERE, "lammps_peri.png"), dpi=110)
+
+    if BIG > 1:
+        big = {}
+        wb = os.path.join(tmp, "big")
+        os.makedirs(wb)
+        bcsv = os.path.join(wb, "big.csv")
+        nb = make_target.write(bcsv, BIG)
+        nsteps = 5
+        for model in ("pmb",):
+            inp = lammps_input(model, nsteps, dump=False, scale=BIG, workdir=wb)
+            out, wall_l, _, rss_l = timed(["nice", "lmp", "-in", inp, "-log", "none"], wb)
+            L = parse_lammps(out, wb, nsteps)
+            sc_n = ejecta_scene(model, wb, nsteps, bcsv, fields="[damage]", every=0)
+            sc_1 = ejecta_scene(model, wb, 1, bcsv, fields="[damage]", every=0)
+            _, w_n, _, rss_e = run_ejecta(sc_n, wb, 1, out="bn.h5")
+            _, w_1, _, _ = run_ejecta(sc_1, wb, 1, out="b1.h5")
+            big[model] = dict(particles=nb, lammps_particles=L["n"], steps=nsteps,
+                              lammps_s_per_step=L["loop"] / nsteps, ejecta_s_per_step=(w_n - w_1) / (nsteps - 1),
+                              lammps_rss=rss_l, ejecta_rss=rss_e,
+                              lammps_bytes_per_particle=rss_l / L["n"], ejecta_bytes_per_particle=rss_e / nb)
+        results["big"] = big
+
+    json.dump(results, open(os.path.join(HERE, "results.json"), "w"), indent=1)
+    # ------------------------------------------------------------------ table
+    print(f"LAMMPS {version}; {npart} particles, {STEPS} steps of 1e-7 s; ejecta {EJECTA}")
+    for model, r in results["models"].items():
+        print(f"\n== {model.upper()}")
+        d = r["damage_mean"]
+        print(f"mean damage at end      LAMMPS {d['lammps']:.5f}  ejecta {d['ejecta']:.5f}  rel.err {d['rel_err']:.3%}"
+              f"  [{'PASS' if d['rel_err'] <= 0.05 else 'FAIL'} 5 %]")
+        print("KE [J] at step          LAMMPS          ejecta          rel.err")
+        for s, a, b, e in zip(r["ke_steps"], r["ke_lammps"], r["ke_ejecta"], r["ke_rel_err"]):
+            print(f"  {s:6d}               {a:.6e}    {b:.6e}    {e:.3%}")
+        worst = max(r["ke_rel_err"])
+        print(f"  worst KE error {worst:.3%}  [{'PASS' if worst <= 0.05 else 'FAIL'} 5 % at every sample]")
+        f = r["force_peak"]
+        print(f"indenter force peak [N] LAMMPS {f['lammps']:.5g}  ejecta {f['ejecta']:.5g}  ratio {f['ratio']:.4f}")
+        p = r["particle_steps_per_s"]
+        lo = r["loop_s"]
+        print(f"step-loop wall [s]      LAMMPS {lo['lammps']:.3f}  ejecta 1t {lo['ejecta_1t']:.3f}  2t {lo['ejecta_2t']:.3f}")
+        print(f"particle-steps/s        LAMMPS {p['lammps']:.4g}  ejecta 1t {p['ejecta_1t']:.4g}  2t {p['ejecta_2t']:.4g}")
+        print(f"  ejecta/LAMMPS (1 thread) {p['ratio_1t']:.2f}x  [{'PASS' if p['ratio_1t'] >= 5 else 'FAIL'} >= 5x]"
+              f"   ejecta 2t/1t {p['ratio_2t_vs_1t']:.2f}x  [{'PASS' if p['ratio_2t_vs_1t'] >= 1.8 else 'FAIL'} >= 1.8x]")
+        m = r["peak_rss"]
+        print(f"peak RSS [MB]           LAMMPS {m['lammps'] / 2**20:.1f}  ejecta {m['ejecta'] / 2**20:.1f}")
+        print(f"ejecta energy balance at end {r['energy_balance_end']:.3e} J (KE {r['ke_end']:.3e} J)")
+    for model, b in results.get("big", {}).items():
+        print(f"\n== enlarged target ({model.upper()}): ejecta {b['particles']} / LAMMPS {b['lammps_particles']} particles, "
+              f"{b['steps']} steps")
+        print(f"time per step [s]       LAMMPS {b['lammps_s_per_step']:.3f}  ejecta 1t {b['ejecta_s_per_step']:.3f}  "
+              f"ratio {b['lammps_s_per_step'] / b['ejecta_s_per_step']:.2f}x")
+        print(f"memory [bytes/particle] LAMMPS {b['lammps_bytes_per_particle']:.0f}  ejecta {b['ejecta_bytes_per_particle']:.0f}"
+              f"  [{'PASS' if b['ejecta_bytes_per_particle'] <= b['lammps_bytes_per_particle'] else 'FAIL'} <= LAMMPS]")
+    print(f"\nwrote {os.path.join(HERE, 'lammps_peri.png')} and results.json; work dir {tmp}")
+
+
+if __name__ == "__main__":
+    main()

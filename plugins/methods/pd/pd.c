@@ -1,0 +1,827 @@
+/* Bond-based (PMB) and ordinary state-based (LPS) peridynamics, matching LAMMPS's pair styles
+ * peri/pmb and peri/lps (PERI package, M. Parks) operation for operation.
+ *
+ * Sources:
+ *  - PMB: Silling & Askari, "A meshfree method based on the peridynamic model of solid
+ *    mechanics", Comput. Struct. 83 (2005) 1526: pairwise force f = c s (Eq 2, 4), critical
+ *    stretch with the s0 = s00 - alpha s_min history (Eq 11 as used by LAMMPS), time step
+ *    (Eq 16), micromodulus c = 18 K / (pi delta^4) (Eq 18).
+ *  - LPS: Silling, Epton, Weckner, Xu, Askari, "Peridynamic states and constitutive
+ *    modeling", J. Elasticity 88 (2007) 151, section 15: theta = (3/m) sum w x e V,
+ *    t = (3 K theta / m) w x + (15 G / m) w e^d, W = K theta^2 / 2 + (15 G / 2m) sum w (e^d)^2 V,
+ *    influence function w = 1/|xi| (LAMMPS's choice).
+ *  - LAMMPS conventions reproduced here (src/PERI/pair_peri_pmb.cpp, pair_peri_lps.cpp,
+ *    fix_peri_neigh.cpp, compute_damage_atom.cpp):
+ *      * a bond exists for |xi| <= delta in the reference configuration;
+ *      * partial volume of a neighbour near the horizon: V_j scaled by
+ *        (delta + lc/2 - |xi|) / lc when | |xi| - delta | <= lc/2 (lc = lattice constant);
+ *      * stretch s = (r - r0)/r0 with |r - r0| < 2.2204e-16 m set to 0 (round-off guard);
+ *      * a bond breaks after its force was applied in the step where s > min(s0_i, s0_j),
+ *        s0 of the previous evaluation; s0_i is then set to max_j (s00 - alpha s_ij) over the
+ *        unbroken bonds (DBL_MAX before the first evaluation and for a particle without bonds);
+ *      * short-range contact over every CURRENT pair closer than d_ij = min(0.9 |xi|, 1.35 lc):
+ *        force density 15 c_s V_j (d_ij - r) / delta along the pair, c_s = c (PMB) or
+ *        18 K / (pi delta^4) (LPS);
+ *      * damage = 1 - sum_{intact} V_j / sum_{initial} V_j (no partial-volume scaling).
+ *    LAMMPS stores a force density f and the density as the "mass" (atom_style peri); ejecta
+ *    integrates a = F / m with F = V_i f and m = rho V_i: the same accelerations.
+ *
+ * Layout: the core builds the fixed families (EJ_NBR_REFERENCE) once; this plugin keeps per-bond
+ * r0, c V_j scale (folded) and an alive flag, aligned with the CSR entries, built lazily on the
+ * first compute (the families do not exist before: setup runs before the core sorts the set).
+ * The contact search needs the current configuration, which a reference-family method does not
+ * get from the core: a hashed cell grid with a Verlet skin, rebuilt inside the plugin when a
+ * particle has moved more than half the skin.
+ *
+ * Two passes per step: pass 0 checks displacements for the contact list (and, LPS, computes the
+ * dilatation theta); pass 1 computes forces, energies, breaks bonds and the new s0. Gather form:
+ * each particle sums over its own bonds and contacts and writes only itself. */
+#include <float.h>
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#include "ejecta/plugin.h"
+
+#define PD_NEAR_ZERO 2.2204e-16 /* LAMMPS's round-off guard on r - r0 (pair_peri_*.cpp) */
+#define PD_PI 3.141592653589793 /* the literal LAMMPS uses in peri/lps */
+
+enum { PD_PMB = 0, PD_LPS = 1 };
+static const char *const pd_model_names[] = {"pmb", "lps", NULL};
+
+typedef struct pd_config {
+  int model;
+  ej_real horizon;
+  ej_real c;
+  ej_real bulk, shear;
+  ej_real s00, alpha;
+  ej_real lattice_spacing;
+  bool volume_scaling;
+  bool contact;
+  ej_real contact_skin;
+} pd_config;
+
+static const ej_param pd_params[] = {
+    EJ_PARAM_ENUM(pd_config, model, pd_model_names, "pmb",
+                  "Constitutive model: pmb (prototype microelastic brittle, bond-based, LAMMPS peri/pmb) or lps "
+                  "(linear peridynamic solid, ordinary state-based, LAMMPS peri/lps; 3D only)."),
+    EJ_PARAM_REAL(pd_config, horizon, "m", 0.0, 0.0, 0.0, EJ_PF_REQUIRED | EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN,
+                  "Horizon delta: bonds join particles with |x0_j - x0_i| <= delta (LAMMPS pair_coeff cutoff)."),
+    EJ_PARAM_REAL(pd_config, c, "N/m^6", 0.0, 0.0, 0.0, EJ_PF_HAS_MIN,
+                  "PMB micromodulus c in N/m^6 (LAMMPS peri/pmb c); 0 takes c = 18 K / (pi delta^4) from bulk "
+                  "(Silling & Askari 2005 Eq 18, 3D)."),
+    EJ_PARAM_REAL(pd_config, bulk, "Pa", 0.0, 0.0, 0.0, EJ_PF_HAS_MIN,
+                  "Bulk modulus K (LPS; PMB when c is 0); 0 takes the material's elastic bulk modulus."),
+    EJ_PARAM_REAL(pd_config, shear, "Pa", 0.0, 0.0, 0.0, EJ_PF_HAS_MIN,
+                  "Shear modulus G (LPS); 0 takes the material's elastic shear modulus."),
+    EJ_PARAM_REAL(pd_config, s00, "1", 0.0, 0.0, 0.0, EJ_PF_HAS_MIN,
+                  "Critical stretch s00 of an unstretched neighbourhood; a bond breaks when its stretch exceeds "
+                  "min(s0_i, s0_j) with s0 = s00 - alpha s_min; 0 disables bond breaking."),
+    EJ_PARAM_REAL(pd_config, alpha, "1", 0.0, 0.0, 0.0, 0,
+                  "Dependence of the critical stretch on the smallest (most compressive) bond stretch of the "
+                  "particle, s0 = s00 - alpha s_min (LAMMPS alpha, typically 0.25)."),
+    EJ_PARAM_REAL(pd_config, lattice_spacing, "m", 0.0, 0.0, 0.0, EJ_PF_HAS_MIN,
+                  "Lattice constant lc of the partial-volume correction and the contact distance 1.35 lc; 0 "
+                  "takes the set's smallest particle spacing."),
+    EJ_PARAM_BOOL(pd_config, volume_scaling, 1,
+                  "Scale V_j of neighbours within lc/2 of the horizon by (delta + lc/2 - |xi|)/lc as LAMMPS does "
+                  "(makes the discrete modulus match the continuum one)."),
+    EJ_PARAM_BOOL(pd_config, contact, 1,
+                  "Short-range repulsion of LAMMPS peri between any two particles closer than "
+                  "min(0.9 |xi|, 1.35 lc), bonded or not (current-configuration search)."),
+    EJ_PARAM_REAL(pd_config, contact_skin, "1", 0.35, 0.0, 0.0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN | EJ_PF_EXPERT,
+                  "Verlet skin of the contact list in lattice spacings; the list is rebuilt when a particle has "
+                  "moved half of it."),
+    {0}};
+
+typedef struct pd_state {
+  pd_config cfg;
+  const char *set_name;
+  int dim;
+  ej_real delta, lc;
+  ej_real c_bond;    /* PMB micromodulus c                                  */
+  ej_real c_contact; /* micromodulus of the contact force (c or 18K/pi d^4) */
+  ej_real K, G;
+  bool failure;
+  /* per bond, aligned with the reference CSR */
+  int ready; /* 0 until the lazy initialisation is done (read atomically) */
+  ej_off nnz;
+  ej_idx n_rows;
+  const ej_off *off; /* the core's fixed families (never rebuilt) */
+  const ej_idx *idx;
+  ej_real *r0;    /* reference length                                     */
+  ej_real *wc;    /* c V_j scale (PMB) or V_j scale (LPS); 0 for a non-bond */
+  uint8_t *alive; /* 1 intact bond, 0 broken or beyond the horizon         */
+  ej_real *vinter; /* [n] initial sum of V_j (damage denominator)          */
+  ej_real *vint;   /* [n] intact sum of V_j                                */
+  int64_t n_bonds;
+  /* contact: hashed cell grid + Verlet list over owned + ghost particles */
+  int due; /* a rebuild is needed (set in pass 0, read atomically) */
+  ej_real rc, skin;
+  ej_idx n_all_cap;
+  ej_real *xcb;     /* [n] positions at the last contact build */
+  int32_t *key;     /* [3 n_all] cell coordinates              */
+  uint32_t *bucket; /* [T + 1] counting-sort offsets            */
+  ej_idx *order;    /* [n_all] particles by bucket              */
+  uint32_t tmask;
+  ej_off *coff;   /* [n + 1] */
+  ej_idx *cidx;   /* [ccap] */
+  ej_real *cd;    /* [ccap] d_ij */
+  ej_off ccap;
+  int64_t n_contact_builds;
+  ej_err init_rc;
+} pd_state;
+
+/* ------------------------------------------------------------------ declare / create */
+
+static ej_err pd_declare(const void *config, int dim, ej_decl *d)
+{
+  const pd_config *cfg = config;
+  EJ_ENSURE(dim >= 1 && dim <= 3, EJ_ERR_ARG, "pd: dimension %d not in 1..3", dim);
+  static const ej_field_decl fields[] = {
+      {.name = "damage", .kind = EJ_SCALAR, .flags = EJ_FIELD_OUTPUT | EJ_FIELD_NO_GHOST, .unit = "1",
+       .doc = "Damage 1 - (intact bond volume)/(initial bond volume) (LAMMPS compute damage/atom)."},
+      {.name = "s0", .kind = EJ_SCALAR, .flags = 0, .unit = "1",
+       .doc = "Critical stretch of the particle from the previous evaluation (LAMMPS s0)."},
+      {.name = "s0_new", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "1",
+       .doc = "Critical stretch for the next step, max over intact bonds of s00 - alpha s."},
+      {.name = "e_pd", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST | EJ_FIELD_OUTPUT,
+       .unit = "J/kg", .energy = EJ_ENERGY_INTERNAL,
+       .doc = "Specific elastic energy of the intact bonds and the contact springs."},
+      {.name = "w_frac", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "J/kg", .energy = EJ_ENERGY_INTERNAL,
+       .doc = "Specific elastic energy released by broken bonds (kept in the internal energy so the budget "
+              "balances)."},
+      {.name = "n_broken", .kind = EJ_INT, .flags = EJ_FIELD_NO_GHOST, .unit = "1",
+       .doc = "Bonds of this particle broken so far."},
+  };
+  for (size_t k = 0; k < sizeof fields / sizeof fields[0]; ++k) EJ_TRY(ej_decl_field(d, &fields[k]));
+  if (cfg->model == PD_LPS) {
+    static const ej_field_decl lps[] = {
+        {.name = "theta", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_OUTPUT, .unit = "1",
+         .doc = "Dilatation theta = (3/m) sum w |xi| e V_j (LPS)."},
+        {.name = "lps_im", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "m^-5",
+         .doc = "1 / m, the inverse weighted volume m = sum w |xi|^2 V_j (LPS)."},
+    };
+    for (size_t k = 0; k < sizeof lps / sizeof lps[0]; ++k) EJ_TRY(ej_decl_field(d, &lps[k]));
+  }
+  EJ_TRY(ej_decl_neighbours(d, EJ_NBR_REFERENCE));
+  return EJ_OK;
+}
+
+static void pd_free_arrays(pd_state *s)
+{
+  ej_free(s->r0), ej_free(s->wc), ej_free(s->alive), ej_free(s->vinter), ej_free(s->vint);
+  ej_free(s->xcb), ej_free(s->key), ej_free(s->bucket), ej_free(s->order);
+  ej_free(s->coff), ej_free(s->cidx), ej_free(s->cd);
+}
+
+static void pd_destroy(void *state)
+{
+  pd_state *s = state;
+  if (!s) return;
+  pd_free_arrays(s);
+  ej_free(s);
+}
+
+static ej_err pd_create(const void *config, ej_set *set, const ej_model *model, void **state)
+{
+  EJ_ENSURE(config && set && model && state, EJ_ERR_ARG, "pd: NULL argument to create");
+  const pd_config *cfg = config;
+  const char *name = ej_set_name(set);
+  const int dim = ej_set_dim(set);
+  EJ_ENSURE(cfg->model != PD_LPS || dim == 3, EJ_ERR_UNSUPPORTED,
+            "set '%s': pd model lps is implemented in 3D only (LAMMPS peri/lps is 3D)", name);
+  ej_real K = cfg->bulk, G = cfg->shear;
+  const ej_material *mat = ej_model_material(model);
+  if ((K <= 0 || G <= 0) && mat) {
+    ej_real Km = 0, Gm = 0;
+    EJ_TRY(ej_material_moduli(mat, &Km, &Gm));
+    if (K <= 0) K = Km;
+    if (G <= 0) G = Gm;
+  }
+  const ej_real delta = cfg->horizon;
+  ej_real c = cfg->c;
+  if (cfg->model == PD_PMB && c <= 0) {
+    EJ_ENSURE(K > 0, EJ_ERR_INPUT,
+              "set '%s': pd model pmb needs the micromodulus 'c' or a bulk modulus ('bulk' or a material with "
+              "elastic moduli)",
+              name);
+    EJ_ENSURE(dim == 3, EJ_ERR_INPUT, "set '%s': c = 18 K/(pi delta^4) holds in 3D only; give 'c' in %dD", name, dim);
+    c = 18.0 * K / (PD_PI * delta * delta * delta * delta);
+  }
+  if (cfg->model == PD_LPS)
+    EJ_ENSURE(K > 0 && G > 0, EJ_ERR_INPUT,
+              "set '%s': pd model lps needs 'bulk' and 'shear' (or a material with elastic moduli)", name);
+  pd_state *s = ej_calloc(1, sizeof *s);
+  EJ_ENSURE(s, EJ_ERR_MEM, "pd: out of memory");
+  s->cfg = *cfg;
+  s->set_name = name;
+  s->dim = dim;
+  s->delta = delta;
+  s->lc = cfg->lattice_spacing > 0 ? cfg->lattice_spacing : ej_set_spacing_min(set);
+  s->K = K, s->G = G;
+  s->c_bond = c;
+  /* peri/lps: kshort = 15 * 18 K / (pi delta^4), i.e. the PMB micromodulus of the same K */
+  s->c_contact = cfg->model == PD_PMB ? c : 18.0 * K / (PD_PI * delta * delta * delta * delta);
+  s->failure = cfg->s00 > 0;
+  s->skin = cfg->contact_skin * s->lc;
+  s->rc = 1.35 * s->lc + s->skin;
+  if (!(s->lc > 0) || !isfinite(s->lc)) {
+    pd_destroy(s);
+    EJ_FAIL(EJ_ERR_INPUT, "set '%s': pd needs a lattice spacing (give 'lattice_spacing')", name);
+  }
+  *state = s;
+  return EJ_OK;
+}
+
+static ej_err pd_setup(void *state, ej_set *set)
+{
+  pd_state *s = state;
+  const ej_idx n = ej_set_count(set);
+  ej_real *s0 = ej_set_field(set, "s0"), *wf = ej_set_field(set, "w_frac"), *dmg = ej_set_field(set, "damage");
+  ej_real *e = ej_set_field(set, "e_pd");
+  int32_t *nb = ej_set_field_int(set, "n_broken");
+  const ej_real *m = ej_set_field(set, "m"), *vol0 = ej_set_field(set, "vol0");
+  EJ_ENSURE(s0 && wf && dmg && e && nb && m && vol0, EJ_ERR_INTERNAL, "set '%s': pd fields missing", s->set_name);
+  for (ej_idx i = 0; i < n; ++i) {
+    EJ_ENSURE(m[i] > 0 && vol0[i] > 0, EJ_ERR_INPUT, "set '%s': pd particle %d has mass %g, volume %g", s->set_name,
+              (int)i, m[i], vol0[i]);
+    /* LAMMPS creates peri atoms with s0 = DBL_MAX: no bond can break before one evaluation */
+    s0[i] = DBL_MAX;
+    wf[i] = 0, dmg[i] = 0, e[i] = 0, nb[i] = 0;
+  }
+  return EJ_OK;
+}
+
+static ej_err pd_support(void *state, const ej_set *set, ej_range r, ej_real *radius)
+{
+  (void)set;
+  const pd_state *s = state;
+  /* the list holds |xi| < R; bonds are |xi| <= delta (LAMMPS): reach a hair further, filter later */
+  for (ej_idx i = r.begin; i < r.end; ++i) radius[i - r.begin] = s->delta * (1 + 1e-9);
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ lazy bond initialisation */
+
+/* LAMMPS partial volume (fix_peri_neigh.cpp): linear from 1 at delta - lc/2 to 0 at delta + lc/2. */
+static inline ej_real pd_vscale(const pd_state *s, ej_real r0)
+{
+  if (!s->cfg.volume_scaling) return 1.0;
+  const ej_real half = 0.5 * s->lc;
+  if (fabs(r0 - s->delta) <= half) return (-1.0 / (2 * half)) * r0 + (1.0 + (s->delta - half) / (2 * half));
+  return 1.0;
+}
+
+static ej_err pd_init_bonds(pd_state *s, ej_set *set, const ej_nbr *nbr)
+{
+  const ej_idx n = ej_set_count(set);
+  EJ_ENSURE(nbr && nbr->n_rows == n, EJ_ERR_INTERNAL, "set '%s': pd family list has %d rows for %d particles",
+            s->set_name, nbr ? (int)nbr->n_rows : -1, (int)n);
+  const ej_off nnz = nbr->off[n];
+  s->n_rows = n;
+  s->nnz = nnz;
+  s->off = nbr->off;
+  s->idx = nbr->idx;
+  s->r0 = ej_malloc((size_t)(nnz ? nnz : 1) * sizeof *s->r0);
+  s->wc = ej_malloc((size_t)(nnz ? nnz : 1) * sizeof *s->wc);
+  s->alive = ej_malloc((size_t)(nnz ? nnz : 1));
+  s->vinter = ej_calloc((size_t)(n ? n : 1), sizeof *s->vinter);
+  s->vint = ej_calloc((size_t)(n ? n : 1), sizeof *s->vint);
+  EJ_ENSURE(s->r0 && s->wc && s->alive && s->vinter && s->vint, EJ_ERR_MEM, "pd: out of memory for %lld bonds",
+            (long long)nnz);
+  const ej_real *x0 = ej_set_field(set, "x0"), *vol0 = ej_set_field(set, "vol0");
+  ej_real *im = ej_set_field(set, "lps_im");
+  EJ_ENSURE(x0 && vol0, EJ_ERR_INTERNAL, "set '%s': pd needs x0 and vol0", s->set_name);
+  const ej_real d2 = s->delta * s->delta;
+  const ej_real cw = s->cfg.model == PD_PMB ? s->c_bond : 1.0;
+  int64_t nb = 0;
+  for (ej_idx i = 0; i < n; ++i) {
+    ej_real wvol = 0;
+    for (ej_off k = nbr->off[i]; k < nbr->off[i + 1]; ++k) {
+      const ej_idx j = nbr->idx[k];
+      const ej_real dx = x0[3 * i] - x0[3 * j], dy = x0[3 * i + 1] - x0[3 * j + 1], dz = x0[3 * i + 2] - x0[3 * j + 2];
+      const ej_real rsq = dx * dx + dy * dy + dz * dz;
+      const ej_real r0 = sqrt(rsq);
+      s->r0[k] = r0 > 0 ? r0 : 1.0;
+      if (rsq <= d2 && r0 > 0) {
+        const ej_real sc = pd_vscale(s, r0);
+        s->wc[k] = cw * vol0[j] * sc;
+        s->alive[k] = 1;
+        s->vinter[i] += vol0[j];
+        /* m = sum w |xi|^2 V_j scale with w = 1/|xi| (fix_peri_neigh.cpp, LPS) */
+        wvol += (1.0 / r0) * rsq * vol0[j] * sc;
+        ++nb;
+      } else {
+        s->wc[k] = 0;
+        s->alive[k] = 0;
+      }
+    }
+    s->vint[i] = s->vinter[i];
+    if (im) im[i] = wvol != 0 ? 1.0 / wvol : 0.0;
+  }
+  s->n_bonds = nb;
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ contact list */
+
+static inline uint32_t pd_hash(int32_t a, int32_t b, int32_t c, uint32_t mask)
+{
+  return ((uint32_t)a * 73856093u ^ (uint32_t)b * 19349663u ^ (uint32_t)c * 83492791u) & mask;
+}
+
+static inline int32_t pd_cell(ej_real x, ej_real inv_h)
+{
+  ej_real q = floor(x * inv_h);
+  q = q < -1e9 ? -1e9 : q > 1e9 ? 1e9 : q;
+  return (int32_t)q;
+}
+
+/* Serial: every owned i gets the particles (owned or ghost) within rc of it, in cell-scan order. */
+static ej_err pd_build_contacts(pd_state *s, ej_set *set)
+{
+  const ej_idx n = ej_set_count(set), na = ej_set_count_all(set);
+  const ej_real *x = ej_set_field(set, "x"), *x0 = ej_set_field(set, "x0");
+  EJ_ENSURE(x && x0, EJ_ERR_INTERNAL, "set '%s': pd needs x and x0", s->set_name);
+  if (na > s->n_all_cap || !s->key) {
+    uint32_t T = 16;
+    while (T < 2u * (uint32_t)(na > 0 ? na : 1)) T <<= 1;
+    ej_free(s->key), ej_free(s->bucket), ej_free(s->order), ej_free(s->xcb), ej_free(s->coff);
+    s->key = ej_malloc((size_t)(na ? na : 1) * 3 * sizeof *s->key);
+    s->bucket = ej_malloc(((size_t)T + 1) * sizeof *s->bucket);
+    s->order = ej_malloc((size_t)(na ? na : 1) * sizeof *s->order);
+    s->xcb = ej_malloc((size_t)(n ? n : 1) * 3 * sizeof *s->xcb);
+    s->coff = ej_malloc(((size_t)n + 1) * sizeof *s->coff);
+    EJ_ENSURE(s->key && s->bucket && s->order && s->xcb && s->coff, EJ_ERR_MEM, "pd: out of memory (contact grid)");
+    s->tmask = T - 1;
+    s->n_all_cap = na;
+    if (!s->cidx) {
+      s->ccap = (ej_off)32 * (n ? n : 1);
+      s->cidx = ej_malloc((size_t)s->ccap * sizeof *s->cidx);
+      s->cd = ej_malloc((size_t)s->ccap * sizeof *s->cd);
+      EJ_ENSURE(s->cidx && s->cd, EJ_ERR_MEM, "pd: out of memory (contact list)");
+    }
+  }
+  const uint32_t T = s->tmask + 1;
+  const ej_real inv_h = 1.0 / s->rc;
+  const int dim = s->dim;
+  memset(s->bucket, 0, ((size_t)T + 1) * sizeof *s->bucket);
+  for (ej_idx p = 0; p < na; ++p) {
+    int32_t *kk = s->key + 3 * p;
+    kk[0] = pd_cell(x[3 * p], inv_h);
+    kk[1] = dim > 1 ? pd_cell(x[3 * p + 1], inv_h) : 0;
+    kk[2] = dim > 2 ? pd_cell(x[3 * p + 2], inv_h) : 0;
+    s->bucket[pd_hash(kk[0], kk[1], kk[2], s->tmask) + 1]++;
+  }
+  for (uint32_t b = 0; b < T; ++b) s->bucket[b + 1] += s->bucket[b];
+  for (ej_idx p = 0; p < na; ++p) {
+    const int32_t *kk = s->key + 3 * p;
+    s->order[s->bucket[pd_hash(kk[0], kk[1], kk[2], s->tmask)]++] = p;
+  }
+  for (uint32_t b = T; b > 0; --b) s->bucket[b] = s->bucket[b - 1];
+  s->bucket[0] = 0;
+  const ej_real rc2 = s->rc * s->rc, dmax = 1.35 * s->lc;
+  const int ry = dim > 1 ? 1 : 0, rz = dim > 2 ? 1 : 0;
+  ej_off nc = 0;
+  s->coff[0] = 0;
+  for (ej_idx i = 0; i < n; ++i) {
+    const int32_t *ki = s->key + 3 * i;
+    const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2];
+    for (int a = -1; a <= 1; ++a)
+      for (int b = -ry; b <= ry; ++b)
+        for (int c = -rz; c <= rz; ++c) {
+          const int32_t cx = ki[0] + a, cy = ki[1] + b, cz = ki[2] + c;
+          const uint32_t h = pd_hash(cx, cy, cz, s->tmask);
+          for (uint32_t q = s->bucket[h]; q < s->bucket[h + 1]; ++q) {
+            const ej_idx j = s->order[q];
+            const int32_t *kj = s->key + 3 * j;
+            if (j == i || kj[0] != cx || kj[1] != cy || kj[2] != cz) continue;
+            const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
+            if (dx * dx + dy * dy + dz * dz >= rc2) continue;
+            if (nc == s->ccap) {
+              /* grows only when compaction packs more particles into rc than ever before */
+              ej_off cap = s->ccap + s->ccap / 2 + 16;
+              ej_idx *ci = ej_realloc(s->cidx, (size_t)cap * sizeof *ci);
+              if (ci) s->cidx = ci;
+              ej_real *cd = ej_realloc(s->cd, (size_t)cap * sizeof *cd);
+              if (cd) s->cd = cd;
+              EJ_ENSURE(ci && cd, EJ_ERR_MEM, "pd: out of memory (contact list)");
+              s->ccap = cap;
+            }
+            const ej_real ex = x0[3 * i] - x0[3 * j], ey = x0[3 * i + 1] - x0[3 * j + 1], ez = x0[3 * i + 2] - x0[3 * j + 2];
+            const ej_real d0 = 0.9 * sqrt(ex * ex + ey * ey + ez * ez);
+            s->cidx[nc] = j;
+            s->cd[nc] = d0 < dmax ? d0 : dmax; /* d_ij = MIN(0.9 |xi|, 1.35 lc) */
+            ++nc;
+          }
+        }
+    s->coff[i + 1] = nc;
+  }
+  memcpy(s->xcb, x, (size_t)n * 3 * sizeof *x);
+  s->n_contact_builds++;
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ passes */
+
+/* Runs once, on the first compute, inside a critical section; every chunk then sees ready = 1. */
+static ej_err pd_ensure_ready(pd_state *s, ej_set *set, const ej_nbr *nbr)
+{
+  int ready;
+#pragma omp atomic read seq_cst
+  ready = s->ready;
+  if (ready) return s->init_rc == EJ_OK ? EJ_OK : ej_error_push(s->init_rc, __FILE__, __LINE__, __func__, "pd: initialisation failed");
+  ej_err rc = EJ_OK;
+#pragma omp critical(pd_lazy_init)
+  {
+    if (!s->ready) {
+      rc = pd_init_bonds(s, set, nbr);
+      s->init_rc = rc;
+      if (rc == EJ_OK) s->due = 1;
+#pragma omp atomic write seq_cst
+      s->ready = 1;
+    } else {
+      rc = s->init_rc;
+    }
+  }
+  if (rc != EJ_OK) EJ_FAIL(rc, NULL);
+  return EJ_OK;
+}
+
+/* Pass 0: contact displacement check; LPS dilatation theta_i = (3/m_i) sum w r0 dr V_j scale
+ * (pair_peri_lps.cpp compute_dilatation; w r0 = 1 for w = 1/r0). */
+static ej_err pd_pass0(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
+{
+  EJ_TRY(pd_ensure_ready(s, set, nbr));
+  const ej_real *restrict x = ej_set_field(set, "x");
+  if (s->cfg.contact) {
+    int due;
+#pragma omp atomic read seq_cst
+    due = s->due;
+    if (!due) {
+      const ej_real lim2 = 0.25 * s->skin * s->skin;
+      bool far = false;
+      for (ej_idx i = r.begin; i < r.end && !far; ++i) {
+        const ej_real dx = x[3 * i] - s->xcb[3 * i], dy = x[3 * i + 1] - s->xcb[3 * i + 1],
+                      dz = x[3 * i + 2] - s->xcb[3 * i + 2];
+        far = dx * dx + dy * dy + dz * dz > lim2;
+      }
+      if (far) {
+#pragma omp atomic write seq_cst
+        s->due = 1;
+      }
+    }
+  }
+  if (s->cfg.model != PD_LPS) return EJ_OK;
+  ej_real *restrict theta = ej_set_field(set, "theta");
+  const ej_real *restrict im = ej_set_field(set, "lps_im");
+  const ej_off *restrict off = nbr->off;
+  const ej_idx *restrict idx = nbr->idx;
+  const ej_real *restrict r0 = s->r0, *restrict wc = s->wc;
+  const uint8_t *restrict alive = s->alive;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2];
+    ej_real th = 0;
+    const ej_off k0 = off[i], k1 = off[i + 1];
+#pragma omp simd reduction(+ : th)
+    for (ej_off k = k0; k < k1; ++k) {
+      const ej_idx j = idx[k];
+      const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
+      ej_real dr = sqrt(dx * dx + dy * dy + dz * dz) - r0[k];
+      dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
+      th += alive[k] == 1 ? dr * wc[k] : 0.0;
+    }
+    theta[i] = im[i] != 0 ? 3.0 * im[i] * th : 0.0;
+  }
+  return EJ_OK;
+}
+
+static ej_err pd_contact_ready(pd_state *s, ej_set *set)
+{
+  int due;
+#pragma omp atomic read seq_cst
+  due = s->due;
+  if (!due) return EJ_OK;
+  ej_err rc = EJ_OK;
+#pragma omp critical(pd_contact_build)
+  {
+    if (s->due) {
+      rc = pd_build_contacts(s, set);
+      if (rc == EJ_OK) {
+#pragma omp atomic write seq_cst
+        s->due = 0;
+      }
+    }
+  }
+  if (rc != EJ_OK) EJ_FAIL(rc, NULL);
+  return EJ_OK;
+}
+
+typedef struct pd_args {
+  const ej_real *x, *m, *vol0, *s0, *theta, *im;
+  ej_real *a, *s0n, *e, *wf, *vint;
+  int32_t *nbk;
+  const ej_off *off;
+  const ej_idx *idx;
+  const ej_real *r0, *wc;
+  uint8_t *alive;
+} pd_args;
+
+/* Bond loops are written without branches so that they vectorise (omp simd): broken bonds
+ * contribute with weight 0, and a bond that breaks in this evaluation is marked 2 and settled
+ * (alive = 0, its volume taken from the damage sum) in a scalar sweep of the rare rows with a
+ * break. One division per bond: q = 1/(r0 r) gives both s = dr/r0 = dr r q and rk/r = wc dr q
+ * (LAMMPS divides twice; the results agree to rounding). */
+#define PD_BOND_SETTLE()                                                                                \
+  do {                                                                                                  \
+    if (nbrk) {                                                                                         \
+      for (ej_off k = k0; k < k1; ++k)                                                                  \
+        if (alive[k] == 2) {                                                                            \
+          alive[k] = 0;                                                                                 \
+          *vlost += vol0[idx[k]];                                                                       \
+        }                                                                                               \
+      *nbroken += (int)nbrk;                                                                               \
+    }                                                                                                   \
+  } while (0)
+
+/* Bond forces of PMB (pair_peri_pmb.cpp): f_i += c V_j scale s (x_j - x_i)/r; energy per bond
+ * and side c s^2 r0 V_j scale / 4 (W_i = 1/2 sum_j w(xi) V_j with w = c s^2 |xi| / 2). */
+static inline ej_real pd_bonds_pmb(const pd_state *s, const pd_args *A, ej_idx i, ej_real f[3], ej_real *e_brk,
+                                   ej_real *s0_new, int *nbroken, ej_real *vlost)
+{
+  const ej_real *restrict x = A->x;
+  const ej_real *restrict r0 = A->r0, *restrict wc = A->wc, *restrict s0 = A->s0, *restrict vol0 = A->vol0;
+  uint8_t *restrict alive = A->alive;
+  const ej_idx *restrict idx = A->idx;
+  const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2], s0i = s0[i];
+  const ej_real fail = s->failure ? 1.0 : 0.0;
+  const ej_real s00 = s->cfg.s00, alpha = s->cfg.alpha;
+  ej_real fx = 0, fy = 0, fz = 0, en = 0, eb_sum = 0, smax_val = -HUGE_VAL;
+  ej_real nbrk = 0, nal = 0;
+  const ej_off k0 = A->off[i], k1 = A->off[i + 1];
+#pragma omp simd reduction(+ : fx, fy, fz, en, eb_sum, nbrk, nal) reduction(max : smax_val)
+  for (ej_off k = k0; k < k1; ++k) {
+    const ej_idx j = idx[k];
+    const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
+    const ej_real r = sqrt(dx * dx + dy * dy + dz * dz);
+    const ej_real rr0 = r0[k];
+    ej_real dr = r - rr0;
+    dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
+    const ej_real q = r > 0.0 ? 1.0 / (rr0 * r) : 0.0;
+    const ej_real st = r > 0.0 ? dr * r * q : dr / rr0;
+    const int al = alive[k] == 1;
+    const ej_real w = al ? wc[k] : 0.0;
+    const ej_real fb = w * dr * q;
+    fx += dx * fb, fy += dy * fb, fz += dz * fb;
+    const ej_real eb = 0.25 * w * st * dr;
+    const ej_real s0j = s0[j];
+    const int brk = al && fail > 0.0 && st > (s0i < s0j ? s0i : s0j);
+    en += brk ? 0.0 : eb;
+    eb_sum += brk ? eb : 0.0;
+    nbrk += brk ? 1.0 : 0.0;
+    nal += al ? 1.0 : 0.0;
+    const ej_real cand = al ? s00 - alpha * st : -HUGE_VAL;
+    smax_val = cand > smax_val ? cand : smax_val;
+    alive[k] = (uint8_t)(brk ? 2 : al);
+  }
+  PD_BOND_SETTLE();
+  *e_brk += eb_sum;
+  *s0_new = nal > 0 ? smax_val : DBL_MAX;
+  f[0] = fx, f[1] = fy, f[2] = fz;
+  return en;
+}
+
+/* Bond forces of LPS (pair_peri_lps.cpp): with w r0 = 1 for w = 1/r0,
+ *   rk = (3K - 5G) V_j scale (theta_i/m_i + theta_j/m_j) + 15 G V_j scale (1/m_i + 1/m_j) dr / r0;
+ * energy (Silling et al. 2007 sec. 15) W_i = K theta_i^2/2 + (15 G / 2 m_i) sum w (e^d)^2 V_j scale,
+ * e^d = dr - theta_i r0 / 3. */
+static inline ej_real pd_bonds_lps(const pd_state *s, const pd_args *A, ej_idx i, ej_real f[3], ej_real *e_brk,
+                                   ej_real *s0_new, int *nbroken, ej_real *vlost)
+{
+  const ej_real *restrict x = A->x, *restrict theta = A->theta, *restrict im = A->im;
+  const ej_real *restrict r0 = A->r0, *restrict wc = A->wc, *restrict s0 = A->s0, *restrict vol0 = A->vol0;
+  uint8_t *restrict alive = A->alive;
+  const ej_idx *restrict idx = A->idx;
+  const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2], s0i = s0[i];
+  const ej_real A35 = 3.0 * s->K - 5.0 * s->G, G15 = 15.0 * s->G;
+  const ej_real ti = theta[i] * im[i], imi = im[i], th3 = theta[i] / 3.0;
+  const ej_real fail = s->failure ? 1.0 : 0.0;
+  const ej_real s00 = s->cfg.s00, alpha = s->cfg.alpha;
+  ej_real fx = 0, fy = 0, fz = 0, en = 0, eb_sum = 0, smax_val = -HUGE_VAL;
+  ej_real nbrk = 0, nal = 0;
+  const ej_off k0 = A->off[i], k1 = A->off[i + 1];
+#pragma omp simd reduction(+ : fx, fy, fz, en, eb_sum, nbrk, nal) reduction(max : smax_val)
+  for (ej_off k = k0; k < k1; ++k) {
+    const ej_idx j = idx[k];
+    const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
+    const ej_real r = sqrt(dx * dx + dy * dy + dz * dz);
+    const ej_real rr0 = r0[k];
+    ej_real dr = r - rr0;
+    dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
+    const ej_real inv_r0 = 1.0 / rr0;
+    const int al = alive[k] == 1;
+    const ej_real w = al ? wc[k] : 0.0;
+    const ej_real rk = A35 * w * (ti + theta[j] * im[j]) + G15 * w * (imi + im[j]) * dr * inv_r0;
+    const ej_real fb = r > 0.0 ? rk / r : 0.0;
+    fx += dx * fb, fy += dy * fb, fz += dz * fb;
+    const ej_real ed = dr - th3 * rr0;
+    const ej_real eb = 0.5 * G15 * imi * ed * ed * w * inv_r0;
+    const ej_real st = dr * inv_r0;
+    const ej_real s0j = s0[j];
+    const int brk = al && fail > 0.0 && st > (s0i < s0j ? s0i : s0j);
+    en += brk ? 0.0 : eb;
+    eb_sum += brk ? eb : 0.0;
+    nbrk += brk ? 1.0 : 0.0;
+    nal += al ? 1.0 : 0.0;
+    const ej_real cand = al ? s00 - alpha * st : -HUGE_VAL;
+    smax_val = cand > smax_val ? cand : smax_val;
+    alive[k] = (uint8_t)(brk ? 2 : al);
+  }
+  PD_BOND_SETTLE();
+  *e_brk += eb_sum;
+  *s0_new = nal > 0 ? smax_val : DBL_MAX;
+  f[0] = fx, f[1] = fy, f[2] = fz;
+  return en + 0.5 * s->K * theta[i] * theta[i];
+}
+
+/* Contact (pair_peri_*.cpp "short-range forces"): force density on i 15 c_s V_j (d - r)/delta
+ * away from j; energy per side 15 c_s V_j (d - r)^2 / (4 delta). */
+static inline ej_real pd_contacts(const pd_state *s, const pd_args *A, ej_idx i, ej_real f[3])
+{
+  const ej_real *restrict x = A->x, *restrict vol0 = A->vol0;
+  const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2];
+  const ej_real k15 = 15.0 * s->c_contact / s->delta;
+  ej_real fx = 0, fy = 0, fz = 0, en = 0;
+  for (ej_off q = s->coff[i]; q < s->coff[i + 1]; ++q) {
+    const ej_idx j = s->cidx[q];
+    const ej_real dx = xi - x[3 * j], dy = yi - x[3 * j + 1], dz = zi - x[3 * j + 2];
+    const ej_real rsq = dx * dx + dy * dy + dz * dz, d = s->cd[q];
+    if (rsq >= d * d) continue;
+    const ej_real r = sqrt(rsq), dr = r - d;
+    const ej_real rk = k15 * vol0[j] * dr;
+    const ej_real fp = r > 0.0 ? -rk / r : 0.0;
+    fx += dx * fp, fy += dy * fp, fz += dz * fp;
+    en += 0.25 * rk * dr;
+  }
+  f[0] = fx, f[1] = fy, f[2] = fz;
+  return en;
+}
+
+static ej_err pd_pass1(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
+{
+  if (s->cfg.contact) EJ_TRY(pd_contact_ready(s, set));
+  pd_args A = {.x = ej_set_field(set, "x"), .m = ej_set_field(set, "m"), .vol0 = ej_set_field(set, "vol0"),
+               .s0 = ej_set_field(set, "s0"), .theta = ej_set_field(set, "theta"), .im = ej_set_field(set, "lps_im"),
+               .a = ej_set_field(set, "a"), .s0n = ej_set_field(set, "s0_new"), .e = ej_set_field(set, "e_pd"),
+               .wf = ej_set_field(set, "w_frac"), .vint = s->vint, .nbk = ej_set_field_int(set, "n_broken"),
+               .off = nbr->off, .idx = nbr->idx, .r0 = s->r0, .wc = s->wc, .alive = s->alive};
+  EJ_ENSURE(A.x && A.m && A.vol0 && A.s0 && A.a && A.s0n && A.e && A.wf && A.nbk, EJ_ERR_INTERNAL,
+            "set '%s': pd fields missing", s->set_name);
+  const bool lps = s->cfg.model == PD_LPS, contact = s->cfg.contact;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    ej_real f[3], fc[3] = {0, 0, 0}, e_brk = 0, s0n, vlost = 0;
+    int nbroken = 0;
+    ej_real en = lps ? pd_bonds_lps(s, &A, i, f, &e_brk, &s0n, &nbroken, &vlost)
+                     : pd_bonds_pmb(s, &A, i, f, &e_brk, &s0n, &nbroken, &vlost);
+    if (contact) en += pd_contacts(s, &A, i, fc);
+    /* a = F/m with F = V_i f: the force density over the density */
+    const ej_real inv_rho = A.vol0[i] / A.m[i];
+    A.a[3 * i] += (f[0] + fc[0]) * inv_rho;
+    A.a[3 * i + 1] += (f[1] + fc[1]) * inv_rho;
+    A.a[3 * i + 2] += (f[2] + fc[2]) * inv_rho;
+    A.s0n[i] = s0n;
+    A.e[i] = en * inv_rho;
+    if (nbroken) {
+      A.wf[i] += e_brk * inv_rho;
+      A.nbk[i] += nbroken;
+      A.vint[i] -= vlost;
+    }
+  }
+  return EJ_OK;
+}
+
+static ej_err pd_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass, ej_range r)
+{
+  pd_state *s = state;
+  EJ_ENSURE(nbr && nbr->off, EJ_ERR_INTERNAL, "set '%s': pd called without its families", s->set_name);
+  switch (pass) {
+  case 0: return pd_pass0(s, set, nbr, r);
+  case 1: return pd_pass1(s, set, nbr, r);
+  default: EJ_FAIL(EJ_ERR_INTERNAL, "pd: pass %d of 2", pass);
+  }
+}
+
+/* ------------------------------------------------------------------ after the step */
+
+static ej_err pd_post_step(void *state, ej_set *set, ej_range r)
+{
+  pd_state *s = state;
+  ej_real *s0 = ej_set_field(set, "s0"), *dmg = ej_set_field(set, "damage");
+  const ej_real *s0n = ej_set_field(set, "s0_new");
+  EJ_ENSURE(s0 && dmg && s0n, EJ_ERR_INTERNAL, "set '%s': pd fields missing", s->set_name);
+  if (!s->ready) return EJ_OK;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    s0[i] = s0n[i];
+    dmg[i] = s->vinter[i] != 0.0 ? 1.0 - s->vint[i] / s->vinter[i] : 0.0;
+  }
+  return EJ_OK;
+}
+
+/* Silling & Askari 2005 Eq 16: dt < sqrt(2 rho_i / sum_j V_j C_ij) with C = c/|xi| (PMB); for LPS
+ * the PMB micromodulus of the same bulk modulus. */
+static ej_err pd_stable_dt(void *state, const ej_set *set, ej_range r, ej_real *dt)
+{
+  const pd_state *s = state;
+  const ej_real *m = ej_set_field(set, "m"), *vol0 = ej_set_field(set, "vol0");
+  ej_real best = HUGE_VAL;
+  /* the core asks after the first compute, when the families exist */
+  if (!s->ready) {
+    *dt = best;
+    return EJ_OK;
+  }
+  const ej_real cfac = s->cfg.model == PD_PMB ? 1.0 : s->c_contact; /* wc holds c V scale or V scale */
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    ej_real sum = 0;
+    for (ej_off k = s->off[i]; k < s->off[i + 1]; ++k)
+      if (s->alive[k]) sum += cfac * s->wc[k] / s->r0[k];
+    if (sum > 0) best = fmin(best, sqrt(2.0 * m[i] / vol0[i] / sum));
+  }
+  *dt = best;
+  return EJ_OK;
+}
+
+static ej_err pd_report(void *state, const ej_set *set, ej_series_value *out, int max, int *n)
+{
+  const pd_state *s = state;
+  *n = 0;
+  if (max < 4) return EJ_OK;
+  const ej_idx np = ej_set_count(set);
+  const ej_real *dmg = ej_set_field(set, "damage"), *wf = ej_set_field(set, "w_frac"), *m = ej_set_field(set, "m");
+  const int32_t *nb = ej_set_field_int(set, "n_broken");
+  ej_real dsum = 0, efrac = 0;
+  int64_t broken = 0;
+  for (ej_idx i = 0; i < np; ++i) dsum += dmg[i], efrac += m[i] * wf[i], broken += nb[i];
+  out[0] = (ej_series_value){.name = "damage_mean", .value = np ? dsum / np : 0};
+  /* each broken bond is counted from both ends, like LAMMPS's partner lists */
+  out[1] = (ej_series_value){.name = "broken_bonds", .value = (ej_real)broken};
+  out[2] = (ej_series_value){.name = "fracture_energy", .value = efrac};
+  out[3] = (ej_series_value){.name = "contact_builds", .value = (ej_real)s->n_contact_builds};
+  *n = 4;
+  return EJ_OK;
+}
+
+static int pd_pass_count(const void *state)
+{
+  (void)state;
+  return 2;
+}
+
+static ej_err pd_counters(void *state, ej_counter *out, int max, int *n)
+{
+  const pd_state *s = state;
+  *n = 0;
+  if (max < 2) return EJ_OK;
+  out[0] = (ej_counter){.name = "peridynamic bonds (directed)", .value = s->n_bonds};
+  out[1] = (ej_counter){.name = "contact list builds", .value = s->n_contact_builds};
+  *n = 2;
+  return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ registration */
+
+static const ej_method_ops pd_ops = {
+    .struct_size = sizeof(ej_method_ops),
+    .name = "pd",
+    .summary = "Peridynamics: bond-based PMB and state-based LPS, as LAMMPS peri/pmb and peri/lps",
+    .doc = "Total-Lagrangian peridynamics on fixed families built in the reference configuration. model: pmb "
+           "(prototype microelastic brittle, Silling & Askari 2005) or lps (linear peridynamic solid, Silling et "
+           "al. 2007). Reproduces LAMMPS's PERI package: partial-volume scaling near the horizon, critical "
+           "stretch s0 = s00 - alpha s_min from the previous step, irreversible bond breaking after the force "
+           "is applied, short-range contact repulsion between any close pair, damage from intact bond volume. "
+           "Per-bond state lives in the plugin and is not checkpointed.",
+    .params = pd_params,
+    .config_size = sizeof(pd_config),
+    .check_config = NULL,
+    .declare = pd_declare,
+    .create = pd_create,
+    .setup = pd_setup,
+    .support = pd_support,
+    .n_passes = 2,
+    .self_constitutive = true,
+    .compute = pd_compute,
+    .stable_dt = pd_stable_dt,
+    .post_step = pd_post_step,
+    .counters = pd_counters,
+    .destroy = pd_destroy,
+    .pass_count = pd_pass_count,
+    .report = pd_report,
+};
+
+static ej_err pd_register(ej_registry *reg)
+{
+  EJ_TRY(ej_register_method(reg, &pd_ops));
+  return EJ_OK;
+}
+
+EJ_PLUGIN_DEFINE(pd, "0.1.0", "BSD-3-Clause", "Peridynamics (PMB, LPS) as LAMMPS PERI", pd_register)
