@@ -1,0 +1,155 @@
+#!/usr/bin/python3
+"""Interface impedance test (issue: coupled blast). A smooth stress pulse in a peridynamic bar
+(tlpd, elastic, impedance Z1) crosses a PD-SPH interface into a fluid (sph, linear polynomial
+EOS, impedance Z2). Linear acoustics: transmitted stress T = 2 Z2 / (Z1 + Z2) and reflected
+R = (Z2 - Z1) / (Z1 + Z2) times the incident stress. Tolerance 3 % on T and R.
+
+    /usr/bin/python3 validation/pd_sph_impedance/check.py [--build build] [--form pairwise|paper]
+                                                          [--dx 1e-3] [--short]
+"""
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+
+import h5py
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+
+
+def scene(out, dx, rho2, K2, form, t_end, left="tlpd", alpha=0.0):
+    # cos^2 velocity pulse of amplitude v0 and width W centred at xc in the bar [0, 0.5]
+    v0, W, xc = 1.0, 0.1, 0.35
+    lines = []
+    n = int(round(W / dx))
+    for k in range(n):
+        a, b = xc - W / 2 + k * dx, xc - W / 2 + (k + 1) * dx
+        xm = 0.5 * (a + b)
+        v = v0 * np.cos(np.pi * (xm - xc) / W) ** 2
+        lines.append(f"      - {{region: {{box: {{min: [{a:.9g}], max: [{b:.9g}]}}}}, velocity: [{v:.9g}]}}")
+    init = "\n".join(lines)
+    if left == "tlpd":
+        rock = "{model: elastic, rho0: 2000, E: 1e9, nu: 0.0}"
+        inter = f"{{model: pd_sph, sets: [bar, fluid], form: {form}, alpha: {alpha}, beta: 0.0}}"
+    else:  # the same impedance as a fluid: the SPH-SPH control case through `continuum`
+        rock = "{rho0: 2000, eos: {model: polynomial, rho0: 2000, C1: 1e9}}"
+        inter = f"{{model: continuum, sets: [bar, fluid], alpha: {alpha}, beta: 0.0}}"
+    return f"""ejecta: 1
+dimension: 1
+time: {{end: {t_end}, cfl: 0.4}}
+output: {{file: {out}, every: 0.05 ms, fields: [v, {'stress, ' if left == 'tlpd' else ''}p, rho]}}
+materials:
+  rock: {rock}
+  fluid: {{rho0: {rho2}, eos: {{model: polynomial, rho0: {rho2}, C1: {K2}}}}}
+sets:
+  bar:
+    method: {left}
+    material: rock
+    shape: {{box: {{min: [0], max: [0.5]}}}}
+    spacing: {dx}
+    initial:
+{init}
+  fluid:
+    method: sph
+    material: fluid
+    alpha: {alpha}
+    beta: 0.0
+    shape: {{box: {{min: [0.5], max: [1.0]}}}}
+    spacing: {dx}
+interactions:
+  - {inter}
+""", v0
+
+
+def run_case(build, dx, rho2, K2, form, tmp, left="tlpd"):
+    Z1 = np.sqrt(1e9 * 2000.0)
+    Z2 = np.sqrt(K2 * rho2)
+    c1 = np.sqrt(1e9 / 2000.0)
+    c2 = np.sqrt(K2 / rho2)
+    t_hit = 0.15 / c1
+    t_meas = t_hit + 0.2 / c2  # transmitted pulse 0.2 m into the fluid
+    t_meas = min(t_meas, t_hit + 0.12 / c1)  # reflected pulse still clear of the free-end echo
+    out = os.path.join(tmp, f"imp_{form}_{rho2}.h5")
+    text, v0 = scene(out, dx, rho2, K2, form, f"{t_meas:.6g}", left)
+    sp = os.path.join(tmp, "s.yaml")
+    open(sp, "w").write(text)
+    r = subprocess.run([os.path.join(build, "bin", "ejecta"), "run", sp, "--threads", "1"], capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"ejecta failed:\n{r.stderr}")
+    with h5py.File(out, "r") as f:
+        # incident: the right-going half of the initial pulse, measured in the bar before it
+        # reaches the interface (so the amplitude lost while the pulse splits does not count)
+        keys = sorted(f["frames"].keys())
+        k0 = min(keys, key=lambda q: abs(f["frames"][q].attrs["time"] - 0.1e-3))
+        g0 = f["frames"][k0]["bar"]
+        x0 = g0["x"][:, 0]
+        s0 = g0["stress"][:, 0] if "stress" in g0 else -g0["p"][:]
+        w0 = x0 > 0.35
+        sig_i = s0[w0][np.argmax(np.abs(s0[w0]))]
+        sig_th = -Z1 * v0 / 2
+        k = keys[-1]
+        g = f["frames"][k]
+        xb = g["bar"]["x"][:, 0]
+        sb = g["bar"]["stress"][:, 0] if "stress" in g["bar"] else -g["bar"]["p"][:]
+        xf = g["fluid"]["x"][:, 0]
+        pf = g["fluid"]["p"][:]
+        bal = f["series/energy/balance"][:]
+        kin = f["series/energy/kinetic"][:]
+        px = f["series/energy/momentum_x"][:]
+    # reflected: the extreme stress between the free-end echo and the interface
+    win = (xb > 0.15) & (xb < 0.48)
+    sr = sb[win][np.argmax(np.abs(sb[win]))]
+    # transmitted: the extreme pressure in the fluid away from the interface
+    wf = xf > 0.52
+    st = -pf[wf][np.argmax(np.abs(pf[wf]))]
+    T, R = 2 * Z2 / (Z1 + Z2), (Z2 - Z1) / (Z1 + Z2)
+    res = dict(sig_th=sig_th, Z1=Z1, Z2=Z2, T_exp=T, R_exp=R, T=st / sig_i, R=sr / sig_i, xb=xb, sb=sb, xf=xf, pf=pf,
+               sig_i=sig_i, balance=float(np.max(np.abs(bal))) / float(kin[0]), px=px)
+    return res
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--build", default=os.path.join(ROOT, "build"))
+    ap.add_argument("--form", default="pairwise", choices=["pairwise", "paper"])
+    ap.add_argument("--dx", type=float, default=1e-3)
+    ap.add_argument("--left", default="tlpd", choices=["tlpd", "sph"],
+                    help="method of the left bar: tlpd (the PD-SPH test) or sph (SPH-SPH control through continuum)")
+    ap.add_argument("--png", default=os.path.join(HERE, "impedance.png"))
+    a = ap.parse_args()
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    cases = [(1000.0, 2.5e8), (4000.0, 4e9)]
+    ok = True
+    fig, axs = plt.subplots(1, len(cases), figsize=(11, 4))
+    with tempfile.TemporaryDirectory() as tmp:
+        for ax, (rho2, K2) in zip(axs, cases):
+            r = run_case(a.build, a.dx, rho2, K2, a.form, tmp, a.left)
+            eT = r["T"] / r["T_exp"] - 1
+            eR = r["R"] / r["R_exp"] - 1
+            ok &= abs(eT) < 0.03 and abs(eR) < 0.03
+            print(f"form {a.form}, Z2/Z1 = {r['Z2'] / r['Z1']:.3f}: T = {r['T']:.4f} (exact {r['T_exp']:.4f}, "
+                  f"{100 * eT:+.2f} %), R = {r['R']:.4f} (exact {r['R_exp']:.4f}, {100 * eR:+.2f} %), "
+                  f"incident {r['sig_i'] / r['sig_th']:.4f} of Z1 v0/2, max |balance|/KE0 = {r['balance']:.2e}, momentum drift {r['px'][-1] - r['px'][0]:.3e}")
+            ax.plot(r["xb"], -r["sb"] / -r["sig_i"], label="PD bar: stress / incident")
+            ax.plot(r["xf"], r["pf"] / -r["sig_i"], label="SPH fluid: -pressure / incident")
+            ax.axhline(r["T_exp"], ls=":", c="k", lw=0.8)
+            ax.axhline(r["R_exp"], ls="--", c="k", lw=0.8)
+            ax.axvline(0.5, c="grey", lw=0.5)
+            ax.set_title(f"Z2/Z1 = {r['Z2'] / r['Z1']:.2f}: T {r['T']:.3f} ({r['T_exp']:.3f}), R {r['R']:.3f} ({r['R_exp']:.3f})",
+                         fontsize=9)
+            ax.set_xlabel("x (m)")
+            ax.legend(fontsize=7)
+    fig.suptitle(f"PD-SPH interface, form {a.form}: pulse after crossing (lines: exact T, R)")
+    fig.tight_layout()
+    fig.savefig(a.png, dpi=110)
+    print("PASS" if ok else "FAIL", f"(tolerance 3 %), figure {a.png}")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
