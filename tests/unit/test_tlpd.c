@@ -407,6 +407,80 @@ START_TEST(test_spring_fallback)
 }
 END_TEST
 
+/* ------------------------------------------------------------------ thread-count determinism */
+
+/* 25 steps of a jittered, compressed and sheared block with bond breaking (about 1300 particles:
+ * three chunks of 512) on 1 and on 2 threads: positions, velocities, stress and damage must be
+ * bitwise identical (gather form, per-row sums, the F_n reuse of pass 0 included). */
+static void det_run(int threads, const char *dir, ej_real **out, ej_idx *n_out)
+{
+  char path[256], h5[256];
+  snprintf(path, sizeof path, "%s/d%d.yaml", dir, threads);
+  snprintf(h5, sizeof h5, "%s/d%d.h5", dir, threads);
+  FILE *f = fopen(path, "w");
+  ck_assert_ptr_nonnull(f);
+  fprintf(f, "ejecta: 1\ndimension: 3\ntime: {end: 1, cfl: 0.5, max_steps: 25}\n" MAT
+             "output: {file: %s}\n"
+             "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0, 0, 0], max: [0.11, 0.11, 0.11]}}, "
+             "spacing: 0.01, jitter: 0.2, failure: {critical_stretch: 0.002}, "
+             "initial: [{region: {box: {min: [0, 0, 0.06], max: [1, 1, 1]}}, velocity: [3, 0, -5]}]}}\n",
+          h5);
+  fclose(f);
+  ej_registry *reg;
+  ej_scene *sc;
+  ej_sim *sim;
+  ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_tlpd_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_elastic_info()), EJ_OK);
+  ck_assert_int_eq(ej_scene_load(path, reg, &sc), EJ_OK);
+  ej_run_opts o = {.struct_size = sizeof o, .threads = threads};
+  ck_assert_int_eq(ej_sim_create(sc, reg, &o, &sim), EJ_OK);
+  ej_err rc = ej_sim_run(sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  ej_set *s = sim->sets[0];
+  const ej_idx n = ej_set_count(s);
+  const char *names[] = {"x", "v", "stress", "damage"};
+  const int nc[] = {3, 3, 6, 1};
+  ej_real *buf = malloc((size_t)n * 13 * sizeof *buf), *p = buf;
+  ck_assert_ptr_nonnull(buf);
+  for (int k = 0; k < 4; ++k) {
+    memcpy(p, ej_set_field(s, names[k]), (size_t)n * nc[k] * sizeof *p);
+    p += (size_t)n * nc[k];
+  }
+  const ej_real *dmg = ej_set_field(s, "damage");
+  double dsum = 0;
+  for (ej_idx i = 0; i < n; ++i) dsum += dmg[i];
+  ck_assert_msg(dsum > 0, "no bond broke: the test would not exercise breaking");
+  *out = buf;
+  *n_out = n;
+  ej_sim_destroy(sim);
+  ej_scene_destroy(sc);
+  ej_registry_destroy(reg);
+  unlink(path);
+  unlink(h5);
+  snprintf(h5, sizeof h5, "%s/d%d.xdmf", dir, threads);
+  unlink(h5);
+}
+
+START_TEST(test_thread_determinism)
+{
+  char dir[64];
+  snprintf(dir, sizeof dir, "/tmp/ej_tlpd_det_XXXXXX");
+  ck_assert_ptr_nonnull(mkdtemp(dir));
+  ej_real *a, *b;
+  ej_idx na, nb;
+  det_run(1, dir, &a, &na);
+  det_run(2, dir, &b, &nb);
+  rmdir(dir);
+  ck_assert_int_gt(na, 1024);
+  ck_assert_int_eq(na, nb);
+  ck_assert_msg(memcmp(a, b, (size_t)na * 13 * sizeof *a) == 0, "1 and 2 threads differ");
+  free(a);
+  free(b);
+}
+END_TEST
+
 int main(void)
 {
   Suite *s = suite_create("tlpd");
@@ -424,6 +498,7 @@ int main(void)
   tcase_add_test(tc, test_bond_breaking);
   tcase_add_test(tc, test_point_failure_detached);
   tcase_add_test(tc, test_spring_fallback);
+  tcase_add_test(tc, test_thread_determinism);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

@@ -11,8 +11,9 @@ particles, about 2.02 mm), horizon 3 dx, dt = 5e-7 s as in 000.
 
 Measured: for the top-layer particles nearest to R/2, 3R/4 and R, max over t of
 | |v| / (omega r0) - 1 | (r0 the particle's initial radius). Tolerance 0.5 % with the objective
-update (objective: true). The run with objective: false is shown in the figure and must deviate
-by more than 5 % (it diverges).
+update (objective: true) for a 25x stiffer elastic solid (E = 2.4625 GPa); the soil (E = 98.5 MPa)
+is reported (its deviation is the centrifugal breathing, see below). The runs with
+objective: false (both materials, full 1 ms or until they fail) must deviate by more than 5 %.
 Note: the centrifugal stress rho omega^2 R^2 ~ 1 MPa stretches this soft soil radially by about
 rho omega^2 R^2 / E ~ 1 %, which changes |v| by the same order (angular momentum is conserved):
 this is physics, not an objectivity error.
@@ -32,7 +33,7 @@ R, H, OMEGA = 0.025, 0.05, 1000.0
 TOL = 0.005
 
 
-def scene(dx, objective, out, columns=None, t_end="1 ms"):
+def scene(dx, objective, out, columns=None, t_end="1 ms", E="98.5 MPa"):
     init = ""
     if columns is not None:
         lines = []
@@ -46,7 +47,7 @@ dimension: 3
 time: {{end: {t_end}, dt: 5e-7}}
 output: {{file: {out}, every: 0.02 ms, fields: [v, stress]}}
 materials:
-  soil: {{model: elastic, rho0: 1700, E: 98.5 MPa, nu: 0.25}}
+  soil: {{model: elastic, rho0: 1700, E: {E}, nu: 0.25}}
 sets:
   cyl:
     method: tlpd
@@ -63,6 +64,7 @@ def main():
     ap.add_argument("--out", default="out/validation/tlpd_rotation")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--dx", type=float, default=0.002)
+    ap.add_argument("--reuse", action="store_true")
     a = ap.parse_args()
     exe = common.ejecta_binary(a.build)
     # positions of the lattice (a zero-length run), then one initial-velocity column per (x, y)
@@ -71,18 +73,24 @@ def main():
     d0 = common.read_frame(p0, common.frames(p0)[0])
     xy = np.round(d0["x"][:, :2] / a.dx * 2) / 2 * a.dx
     cols = sorted(set(map(tuple, xy)))
+    # (tag, E, objective): the soil of 000 and a 25x stiffer one (centrifugal stretch
+    # rho omega^2 R^2 / E: 1.1 % and 0.043 %)
+    cases = [("soil", "98.5 MPa", True), ("soil", "98.5 MPa", False), ("stiff", "2.4625 GPa", True),
+             ("stiff", "2.4625 GPa", False)]
     res = {}
-    for objective in (True, False):
-        name = "rot_objective" if objective else "rot_plain"
+    for tag, E, objective in cases:
+        name = f"rot_{tag}_{'objective' if objective else 'plain'}"
         out = os.path.join(a.out, name + ".h5")
-        txt = scene(a.dx, objective, out, cols, t_end="1 ms" if objective else "0.2 ms")
-        try:
-            common.run(exe, txt, name, a.out, threads=a.threads)
-        except RuntimeError as e:  # the non-objective run may be stopped by the watchdog
-            print(f"  {name}: {e}")
-        res[objective] = out if os.path.exists(out) else None
+        txt = scene(a.dx, objective, out, cols, t_end="1 ms", E=E)
+        if not (a.reuse and (os.path.exists(out) or os.path.exists(out + ".partial"))):
+            try:
+                common.run(exe, txt, name, a.out, threads=a.threads)
+            except RuntimeError as e:  # the non-objective run may be stopped (NaN / watchdog)
+                print(f"  {name}: {e}")
+        res[(tag, objective)] = out if os.path.exists(out) else (out + ".partial" if os.path.exists(out + ".partial") else None)
     # probes from the initial frame
-    f0 = common.read_frame(res[True], common.frames(res[True])[0])
+    p0 = res[("soil", True)]
+    f0 = common.read_frame(p0, common.frames(p0)[0])
     x0 = f0["x"]
     ids0 = f0["id"]
     ztop = x0[:, 2].max()
@@ -96,42 +104,52 @@ def main():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2), sharey=False)
+    fig, axs = plt.subplots(2, 2, figsize=(11, 8))
     ok = True
-    for objective, axk in ((True, 0), (False, 1)):
-        path = res[objective]
+    for (tag, E, objective), axk in zip(cases, axs.flat):
+        path = res[(tag, objective)]
         if path is None:
+            print(f"{tag} objective={objective}: no output")
+            ok &= not objective
             continue
         T = []
         V = {p[1]: [] for p in probes}
         for fr in common.frames(path):
             d = common.read_frame(path, fr)
-            T.append(d["time"])
             pos = {int(i): k for k, i in enumerate(d["id"])}
+            if any(pid not in pos for _, pid, _ in probes):
+                continue
+            T.append(d["time"])
             for _, pid, _ in probes:
                 V[pid].append(np.linalg.norm(d["v"][pos[pid]]))
         T = np.array(T)
         worst = 0
         for frac, pid, r0 in probes:
             v = np.array(V[pid])
-            dev = np.max(np.abs(v / (OMEGA * r0) - 1))
+            dev = np.max(np.abs(v / (OMEGA * r0) - 1)) if np.all(np.isfinite(v)) else np.inf
             worst = max(worst, dev)
-            ax[axk].plot(T * 1e3, v, label=f"r0 = {r0*1e3:.2f} mm ({frac:g} R)")
-            ax[axk].axhline(OMEGA * r0, ls="--", lw=0.7, color="k")
-            tag = "objective" if objective else "no rotation"
-            print(f"{tag:11s} r0 = {r0*1e3:6.3f} mm ({frac:4.2f} R): omega r0 = {OMEGA*r0:6.3f} m/s, |v| in "
-                  f"[{v.min():.3f}, {v.max():.3f}], max deviation {100*dev:.3f} %")
-        if objective:
+            axk.plot(T * 1e3, v, label=f"r0 = {r0*1e3:.2f} mm ({frac:g} R)")
+            axk.axhline(OMEGA * r0, ls="--", lw=0.7, color="k")
+            print(f"{tag:5s} {'objective' if objective else 'plain':9s} r0 = {r0*1e3:6.3f} mm ({frac:4.2f} R): omega r0 = "
+                  f"{OMEGA*r0:6.3f} m/s, |v| in [{np.nanmin(v):.4g}, {np.nanmax(v):.4g}], max deviation {100*dev:.3f} %, "
+                  f"reached t = {T[-1]*1e3:.3f} ms")
+        if objective and tag == "stiff":
             good = worst < TOL
-            print(f"objective update: max deviation {100*worst:.3f} % (tol {100*TOL:.1f} %)  {'PASS' if good else 'FAIL'}")
+            print(f"stiff, objective update: max deviation {100*worst:.3f} % (tol {100*TOL:.1f} %)  {'PASS' if good else 'FAIL'}")
+        elif objective:
+            good = True
+            print(f"soil, objective update: max deviation {100*worst:.3f} % (centrifugal breathing ~ rho w^2 R^2/E = 1.1 %; "
+                  "reported, not a criterion)")
         else:
             good = worst > 0.05
-            print(f"without rotation: max deviation {100*worst:.1f} % (must exceed 5 %)  {'PASS' if good else 'FAIL'}")
+            print(f"{tag}, without rotation: max deviation {100*worst:.1f} % (must exceed 5 %)  {'PASS' if good else 'FAIL'}")
         ok &= good
-        ax[axk].set_title("Hughes-Winget (objective: true)" if objective else "objective: false")
-        ax[axk].set_xlabel("t (ms)")
-        ax[axk].set_ylabel("|v| (m/s)")
-        ax[axk].legend(fontsize=8)
+        axk.set_title(f"{tag} (E = {E}), " + ("Hughes-Winget (objective: true)" if objective else "objective: false"))
+        axk.set_xlabel("t (ms)")
+        axk.set_ylabel("|v| (m/s)")
+        if not objective:
+            axk.set_yscale("log")
+        axk.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "tlpd_rotation.png"), dpi=110)
     print("PASS" if ok else "FAIL")

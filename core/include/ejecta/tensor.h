@@ -180,4 +180,50 @@ static inline int ej_hughes_winget(ej_real Q[9], const ej_real w[9], ej_real dt)
   return 1;
 }
 
+/* Eigen-decomposition of a symmetric tensor (cyclic Jacobi, converged to round-off):
+ * A = sum_k lam[k] v_k v_k^T with v_k = column k of V (row-major: V[3*i+k] = (v_k)_i), V a
+ * rotation. Eigenvalues unsorted. Used by spectral (principal-stress) return mappings. */
+static inline void ej_s6_eig(ej_real lam[3], ej_real V[9], const ej_real s[6])
+{
+  ej_real A[9];
+  ej_s6_to_m3(A, s);
+  ej_m3_identity(V);
+  for (int sweep = 0; sweep < 50; ++sweep) {
+    const ej_real off = A[1] * A[1] + A[2] * A[2] + A[5] * A[5];
+    const ej_real dia = A[0] * A[0] + A[4] * A[4] + A[8] * A[8];
+    if (!(off > 1e-36 * dia) || off == 0) break;
+    for (int p = 0; p < 2; ++p)
+      for (int q = p + 1; q < 3; ++q) {
+        const ej_real apq = A[3 * p + q];
+        if (apq == 0) continue;
+        const ej_real th = (A[3 * q + q] - A[3 * p + p]) / (2 * apq);
+        const ej_real t = (th >= 0 ? 1 : -1) / (fabs(th) + sqrt(th * th + 1));
+        const ej_real c = 1 / sqrt(t * t + 1), sn = t * c;
+        for (int k = 0; k < 3; ++k) { /* A <- A J (columns p, q) */
+          const ej_real akp = A[3 * k + p], akq = A[3 * k + q];
+          A[3 * k + p] = c * akp - sn * akq, A[3 * k + q] = sn * akp + c * akq;
+        }
+        for (int k = 0; k < 3; ++k) { /* A <- J^T A (rows p, q) */
+          const ej_real apk = A[3 * p + k], aqk = A[3 * q + k];
+          A[3 * p + k] = c * apk - sn * aqk, A[3 * q + k] = sn * apk + c * aqk;
+        }
+        for (int k = 0; k < 3; ++k) { /* V <- V J */
+          const ej_real vkp = V[3 * k + p], vkq = V[3 * k + q];
+          V[3 * k + p] = c * vkp - sn * vkq, V[3 * k + q] = sn * vkp + c * vkq;
+        }
+      }
+  }
+  lam[0] = A[0], lam[1] = A[4], lam[2] = A[8];
+}
+
+/* s = sum_k lam[k] v_k v_k^T (inverse of ej_s6_eig). */
+static inline void ej_s6_from_eig(ej_real s[6], const ej_real lam[3], const ej_real V[9])
+{
+  ej_real A[9];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      A[3 * i + j] = lam[0] * V[3 * i] * V[3 * j] + lam[1] * V[3 * i + 1] * V[3 * j + 1] + lam[2] * V[3 * i + 2] * V[3 * j + 2];
+  ej_m3_to_s6(s, A);
+}
+
 #endif /* EJ_TENSOR_H */

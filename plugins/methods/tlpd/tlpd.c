@@ -174,6 +174,8 @@ typedef struct tlpd_state {
   ej_real *c_eos;      /* [n] */
   ej_real *area;       /* [n] traction area (0: not loaded) */
   uint8_t *row_ready;  /* [n] */
+  uint8_t *fprev_ok;   /* [n] F holds F_n of the previous step over the same bonds (so grad du = F - F_n) */
+  ej_real *m1;         /* [3n] first moment sum_j w_ij V_j X over intact bonds (force pass: sum_j A G_i X = G_i m1) */
   int32_t *n_fallback; /* [n] particle-steps with a singular K */
   /* serial report accumulators */
   ej_real w_traction, w_damping, t_last;
@@ -229,6 +231,7 @@ static void tlpd_free_arrays(tlpd_state *s)
 {
   ej_free(s->wa), ej_free(s->wb), ej_free(s->Kinv), ej_free(s->d6), ej_free(s->wp);
   ej_free(s->p_eos), ej_free(s->c_eos), ej_free(s->area), ej_free(s->row_ready), ej_free(s->n_fallback);
+  ej_free(s->fprev_ok), ej_free(s->m1);
 }
 
 static void tlpd_destroy(void *state)
@@ -348,17 +351,21 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
   s->wp = ej_calloc(nn, sizeof *s->wp);
   s->area = ej_calloc(nn, sizeof *s->area);
   s->row_ready = ej_calloc(nn, 1);
+  s->fprev_ok = ej_calloc(nn, 1);
+  s->m1 = ej_calloc(3 * nn, sizeof *s->m1);
   s->n_fallback = ej_calloc(nn, sizeof *s->n_fallback);
   if (s->eos) {
     s->p_eos = ej_calloc(nn, sizeof *s->p_eos);
     s->c_eos = ej_calloc(nn, sizeof *s->c_eos);
   }
-  if (!s->wa || !s->wb || !s->Kinv || !s->d6 || !s->wp || !s->area || !s->row_ready || !s->n_fallback ||
+  if (!s->wa || !s->wb || !s->Kinv || !s->d6 || !s->wp || !s->area || !s->row_ready || !s->n_fallback || !s->fprev_ok ||
+      !s->m1 ||
       (s->eos && (!s->p_eos || !s->c_eos))) {
     tlpd_free_arrays(s);
     s->wa = s->wb = NULL;
     s->Kinv = s->d6 = s->wp = s->area = s->p_eos = s->c_eos = NULL;
-    s->row_ready = NULL;
+    s->row_ready = s->fprev_ok = NULL;
+    s->m1 = NULL;
     s->n_fallback = NULL;
     EJ_FAIL(EJ_ERR_MEM, "set '%s': tlpd out of memory for %lld bonds", s->name, (long long)s->nb);
   }
@@ -374,7 +381,7 @@ static void tlpd_refresh_row(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_i
   ej_real *coef = ej_set_field(set, "pd_coef"), *damage = ej_set_field(set, "damage");
   const uint8_t *flags = ej_set_bond_flags(set);
   const int dim = s->dim;
-  ej_real K[9] = {0}, m1 = 0, wsum = 0, vall = 0, vint = 0;
+  ej_real K[9] = {0}, m1 = 0, wsum = 0, vall = 0, vint = 0, M1[3] = {0, 0, 0};
   int nint = 0;
   for (ej_off k = nbr->off[i]; k < nbr->off[i + 1]; ++k) {
     const ej_real w = s->wa[k];
@@ -388,8 +395,11 @@ static void tlpd_refresh_row(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_i
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) K[3 * a + b] += w * X[a] * X[b];
     m1 += w * sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
+    for (int a = 0; a < 3; ++a) M1[a] += w * X[a];
     wsum += w;
   }
+  memcpy(s->m1 + 3 * i, M1, sizeof M1);
+  s->fprev_ok[i] = 0; /* the bond set changed: F of the previous step is not N_n K^-1 */
   damage[i] = vall > 0 ? 1 - vint / vall : 1;
   ej_real *Ki = s->Kinv + 9 * i;
   ej_m3_identity(Ki);
@@ -497,30 +507,58 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
     ej_real N[9] = {0}, Nd[9] = {0}, Nv[9] = {0}, SYV = 0;
     if (status[i] == TLPD_OK) {
       const ej_real xi0 = x[3 * i], xi1 = x[3 * i + 1], xi2 = x[3 * i + 2];
-      const ej_real ui0 = xi0 - xp[3 * i], ui1 = xi1 - xp[3 * i + 1], ui2 = xi2 - xp[3 * i + 2];
       const ej_real vi0 = v[3 * i], vi1 = v[3 * i + 1], vi2 = v[3 * i + 2];
       const ej_real Xi0 = x0[3 * i], Xi1 = x0[3 * i + 1], Xi2 = x0[3 * i + 2];
-      for (ej_off k = off[i]; k < off[i + 1]; ++k) {
-        if (flags[k] & TLPD_BROKEN) continue;
-        const ej_real w = wa[k];
-        const ej_idx j = idx[k];
-        const ej_real X0 = w * (x0[3 * j] - Xi0), X1 = w * (x0[3 * j + 1] - Xi1), X2 = w * (x0[3 * j + 2] - Xi2);
-        const ej_real Y[3] = {x[3 * j] - xi0, x[3 * j + 1] - xi1, x[3 * j + 2] - xi2};
-        const ej_real U[3] = {x[3 * j] - xp[3 * j] - ui0, x[3 * j + 1] - xp[3 * j + 1] - ui1,
-                              x[3 * j + 2] - xp[3 * j + 2] - ui2};
-        const ej_real V[3] = {v[3 * j] - vi0, v[3 * j + 1] - vi1, v[3 * j + 2] - vi2};
-        SYV += w * (Y[0] * V[0] + Y[1] * V[1] + Y[2] * V[2]);
-        for (int a = 0; a < 3; ++a) {
-          N[3 * a] += Y[a] * X0, N[3 * a + 1] += Y[a] * X1, N[3 * a + 2] += Y[a] * X2;
-          Nd[3 * a] += U[a] * X0, Nd[3 * a + 1] += U[a] * X1, Nd[3 * a + 2] += U[a] * X2;
-          Nv[3 * a] += V[a] * X0, Nv[3 * a + 1] += V[a] * X1, Nv[3 * a + 2] += V[a] * X2;
+      /* With the same bonds as at the previous step, N_n K^-1 is the F of that step (x_prev is
+       * the x of that step's force evaluation), so grad_X du = F_n+1 - F_n (Eq 80) without a
+       * third bond sum. The flag is set only by post_step (x_prev := x after this pass), and
+       * cleared by a change of the bond set and at a restart; otherwise the sum is taken. */
+      const bool prev = s->fprev_ok[i];
+      if (prev) {
+        for (ej_off k = off[i]; k < off[i + 1]; ++k) {
+          if (flags[k] & TLPD_BROKEN) continue;
+          const ej_real w = wa[k];
+          const ej_idx j = idx[k];
+          const ej_real X0 = w * (x0[3 * j] - Xi0), X1 = w * (x0[3 * j + 1] - Xi1), X2 = w * (x0[3 * j + 2] - Xi2);
+          const ej_real Y0 = x[3 * j] - xi0, Y1 = x[3 * j + 1] - xi1, Y2 = x[3 * j + 2] - xi2;
+          const ej_real V0 = v[3 * j] - vi0, V1 = v[3 * j + 1] - vi1, V2 = v[3 * j + 2] - vi2;
+          SYV += w * (Y0 * V0 + Y1 * V1 + Y2 * V2);
+          N[0] += Y0 * X0, N[1] += Y0 * X1, N[2] += Y0 * X2;
+          N[3] += Y1 * X0, N[4] += Y1 * X1, N[5] += Y1 * X2;
+          N[6] += Y2 * X0, N[7] += Y2 * X1, N[8] += Y2 * X2;
+          Nv[0] += V0 * X0, Nv[1] += V0 * X1, Nv[2] += V0 * X2;
+          Nv[3] += V1 * X0, Nv[4] += V1 * X1, Nv[5] += V1 * X2;
+          Nv[6] += V2 * X0, Nv[7] += V2 * X1, Nv[8] += V2 * X2;
+        }
+      } else {
+        const ej_real ui0 = xi0 - xp[3 * i], ui1 = xi1 - xp[3 * i + 1], ui2 = xi2 - xp[3 * i + 2];
+        for (ej_off k = off[i]; k < off[i + 1]; ++k) {
+          if (flags[k] & TLPD_BROKEN) continue;
+          const ej_real w = wa[k];
+          const ej_idx j = idx[k];
+          const ej_real X0 = w * (x0[3 * j] - Xi0), X1 = w * (x0[3 * j + 1] - Xi1), X2 = w * (x0[3 * j + 2] - Xi2);
+          const ej_real Y[3] = {x[3 * j] - xi0, x[3 * j + 1] - xi1, x[3 * j + 2] - xi2};
+          const ej_real U[3] = {x[3 * j] - xp[3 * j] - ui0, x[3 * j + 1] - xp[3 * j + 1] - ui1,
+                                x[3 * j + 2] - xp[3 * j + 2] - ui2};
+          const ej_real V[3] = {v[3 * j] - vi0, v[3 * j + 1] - vi1, v[3 * j + 2] - vi2};
+          SYV += w * (Y[0] * V[0] + Y[1] * V[1] + Y[2] * V[2]);
+          for (int a = 0; a < 3; ++a) {
+            N[3 * a] += Y[a] * X0, N[3 * a + 1] += Y[a] * X1, N[3 * a + 2] += Y[a] * X2;
+            Nd[3 * a] += U[a] * X0, Nd[3 * a + 1] += U[a] * X1, Nd[3 * a + 2] += U[a] * X2;
+            Nv[3 * a] += V[a] * X0, Nv[3 * a + 1] += V[a] * X1, Nv[3 * a + 2] += V[a] * X2;
+          }
         }
       }
       const ej_real *Ki = s->Kinv + 9 * i;
-      ej_real dF[9], Fd[9];
+      ej_real dF[9], Fd[9], Fn[9];
+      memcpy(Fn, Fi, sizeof Fn);
       ej_m3_mul(Fi, N, Ki);
-      ej_m3_mul(dF, Nd, Ki);
+      if (prev)
+        for (int k = 0; k < 9; ++k) dF[k] = Fi[k] - Fn[k];
+      else
+        ej_m3_mul(dF, Nd, Ki);
       ej_m3_mul(Fd, Nv, Ki);
+      s->fprev_ok[i] = 0; /* set again by post_step, when x_prev becomes this x */
       for (int a = dim; a < 3; ++a) Fi[4 * a] = 1, dF[4 * a] = 0, Fd[4 * a] = 0;
       /* 000 Eqs 79, 88-90: h = grad_X du F_n+1/2^-1 */
       ej_real Fh[9], Fhi[9], h[9];
@@ -639,31 +677,33 @@ static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej
     if (fast && si != TLPD_FALLBACK) {
       /* sum form with 002 hourglass control, both ends correspondence (or detached):
        * t = (A G_i + B G_j) X + (A C_i + B C_j) Y, G = P K^-1 - C F (pass 0) */
-      const ej_real *Gi = G + 9 * i;
+      const ej_real *Gi = G + 9 * i, *M1 = s->m1 + 3 * i;
       const ej_real Ci = si == TLPD_OK ? coef[i] : 0;
       const ej_real xi0 = x[3 * i], xi1 = x[3 * i + 1], xi2 = x[3 * i + 2];
       const ej_real Xi0 = x0[3 * i], Xi1 = x0[3 * i + 1], Xi2 = x0[3 * i + 2];
-      ej_real f0 = 0, f1 = 0, f2 = 0;
+      /* the row's own part, sum_j A G_i X = G_i m1 (m1 over intact bonds, refresh_row) */
+      ej_real f0 = Gi[0] * M1[0] + Gi[1] * M1[1] + Gi[2] * M1[2];
+      ej_real f1 = Gi[3] * M1[0] + Gi[4] * M1[1] + Gi[5] * M1[2];
+      ej_real f2 = Gi[6] * M1[0] + Gi[7] * M1[1] + Gi[8] * M1[2];
       for (ej_off k = off[i]; k < off[i + 1]; ++k) {
         if (flags[k] & TLPD_BROKEN) continue;
         const ej_idx j = idx[k];
         const ej_real A = wa[k], B = wb[k];
         const int sj = status[j];
-        const ej_real X0 = x0[3 * j] - Xi0, X1 = x0[3 * j + 1] - Xi1, X2 = x0[3 * j + 2] - Xi2;
         const ej_real Y0 = x[3 * j] - xi0, Y1 = x[3 * j + 1] - xi1, Y2 = x[3 * j + 2] - xi2;
         if (sj == TLPD_FALLBACK) {
+          const ej_real X0 = x0[3 * j] - Xi0, X1 = x0[3 * j + 1] - Xi1, X2 = x0[3 * j + 2] - Xi2;
           const ej_real ly = sqrt(Y0 * Y0 + Y1 * Y1 + Y2 * Y2), lx = sqrt(X0 * X0 + X1 * X1 + X2 * X2);
-          const ej_real sf = ly > 0 ? 0.5 * coef[j] * B * (ly - lx) / (lx * ly) : 0;
-          f0 += A * (Gi[0] * X0 + Gi[1] * X1 + Gi[2] * X2) + A * Ci * Y0 + sf * Y0;
-          f1 += A * (Gi[3] * X0 + Gi[4] * X1 + Gi[5] * X2) + A * Ci * Y1 + sf * Y1;
-          f2 += A * (Gi[6] * X0 + Gi[7] * X1 + Gi[8] * X2) + A * Ci * Y2 + sf * Y2;
+          const ej_real sf = (ly > 0 ? 0.5 * coef[j] * B * (ly - lx) / (lx * ly) : 0) + A * Ci;
+          f0 += sf * Y0, f1 += sf * Y1, f2 += sf * Y2;
           continue;
         }
+        const ej_real X0 = B * (x0[3 * j] - Xi0), X1 = B * (x0[3 * j + 1] - Xi1), X2 = B * (x0[3 * j + 2] - Xi2);
         const ej_real *Gj = G + 9 * j;
         const ej_real cy = A * Ci + B * (sj == TLPD_OK ? coef[j] : 0);
-        f0 += A * (Gi[0] * X0 + Gi[1] * X1 + Gi[2] * X2) + B * (Gj[0] * X0 + Gj[1] * X1 + Gj[2] * X2) + cy * Y0;
-        f1 += A * (Gi[3] * X0 + Gi[4] * X1 + Gi[5] * X2) + B * (Gj[3] * X0 + Gj[4] * X1 + Gj[5] * X2) + cy * Y1;
-        f2 += A * (Gi[6] * X0 + Gi[7] * X1 + Gi[8] * X2) + B * (Gj[6] * X0 + Gj[7] * X1 + Gj[8] * X2) + cy * Y2;
+        f0 += Gj[0] * X0 + Gj[1] * X1 + Gj[2] * X2 + cy * Y0;
+        f1 += Gj[3] * X0 + Gj[4] * X1 + Gj[5] * X2 + cy * Y1;
+        f2 += Gj[6] * X0 + Gj[7] * X1 + Gj[8] * X2 + cy * Y2;
       }
       const ej_real iv = vol0[i] / m[i];
       a[3 * i] += f0 * iv, a[3 * i + 1] += f1 * iv, a[3 * i + 2] += f2 * iv;
@@ -795,6 +835,9 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
   uint8_t *flags = ej_set_bond_flags(set);
   EJ_ENSURE(x && x0 && xp && failed && status && flags, EJ_ERR_INTERNAL, "set '%s': tlpd fields missing", s->name);
   memcpy(xp + 3 * (size_t)r.begin, x + 3 * (size_t)r.begin, 3 * (size_t)(r.end - r.begin) * sizeof *x);
+  /* F (pass 0 of this step) is now N(x_prev) K^-1 for the rows that have one */
+  if (atomic_load_explicit(&s->ready, memory_order_acquire))
+    for (ej_idx i = r.begin; i < r.end; ++i) s->fprev_ok[i] = status[i] == TLPD_OK;
   const ej_real s0 = s->cfg.failure.critical_stretch;
   const bool check_fail = atomic_load_explicit(&s->any_failed, memory_order_relaxed) != 0;
   for (ej_idx i = r.begin; i < r.end; ++i)

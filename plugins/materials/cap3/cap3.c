@@ -1,0 +1,494 @@
+/* Three-invariant viscoplastic cap model of Chi et al., SERDP MR-2628 (2017) §4.2.2,
+ * Eqs 57-87 (digest 003 §2.2), a hyperbolic-shear GeoModel variant (Fossum & Brannon 2004).
+ * Stresses tension positive, I1 = tr(sigma), J2, J3 of the deviator.
+ *
+ *   F_f = sqrt((C - M I1)^2 - (C - M Xi)^2)                          (Eq 57)
+ *   F_c = 1 - H(kappa - I1) ((I1 - kappa)/(X - kappa))^2             (Eq 58)
+ *   X(kappa) = kappa - R F_f(kappa)                                   (Eq 59/72)
+ *   f = Gamma(beta) sqrt(J2) - sqrt(F_c) F_f                          (Eq 60)
+ *   Gamma = (1 + S + (1 - S)/psi)/2, S = sin 3beta = -3 sqrt3 J3 / (2 J2^1.5)   (Eq 61)
+ *   gamma_dot = a_t <eps_v^p_dot> + a_c <-eps_v^p_dot> + a_s ||e^p_dot||          (Eqs 62-63)
+ *   C, Xi, C_g: Gaussian hardening/softening (Eqs 64-67, 77; erratum 003 §7 item 15: C_g uses
+ *       its own b_Cg, gamma_Cg from C_0g)
+ *   crush curve n* = n0* exp(q1 (X - X0)) (Eq 71) with the small-strain porosity relation
+ *       eps_v^p = (n* - n0*)/(1 - n*) (Eq 69). Eq 73 (erratum item 12: lambda_dot, not gamma_dot)
+ *       is the rate form of X(eps_v^p) with kappa following from X = kappa - R F_f(kappa); it is
+ *       used here in its integrated form, which is exactly consistent with Eq 74 (the derivative
+ *       of Eq 69; erratum item 13: Eq 74 does not belong to the Hencky relation 70).
+ *   g = Gamma sqrt(J2) - sqrt(F_c^g) F_f^g, F_f^g with C_g, M_g; F_c^g with X_g = kappa - R_g
+ *       F_f^g(kappa) (Eqs 78-81; erratum item 16: Eq 80 uses X_g).
+ * Return (Eqs 82-87): backward Euler in principal stresses (trial directions), residual
+ *   R_A = sigma_A - sigma_A^tr + dlambda a^e_AB dg/dsigma_B, R_4 = f, with the internal variables
+ * (rows 4-5 of Eq 86) eliminated exactly: the plastic strain increment is the elastic compliance
+ * of sigma^tr - sigma. Newton with a finite-difference Jacobian of the analytic residual;
+ * tension-tip (I1 = Xi) and cap-tip (I1 = X) hydrostatic returns; a radial fallback (counted).
+ * Duvaut-Lions overstress (not given in the report; erratum item 17; Simo & Hughes 1998):
+ *   sigma = sigma^tr + theta (sigma_qs - sigma^tr), q = q_n + theta (q_qs - q_n). */
+#include <math.h>
+#include <string.h>
+
+#include "ejecta/plugin.h"
+#include "../drucker_prager/mp_common.h"
+
+typedef struct c3_config {
+  ej_real E, nu, K, G;
+  ej_real psi, R, R_g, kappa0, M, M_g, a_t, a_c, a_s;
+  ej_real C_max, C_maxg, Xi_max, C_res, C_resg, Xi_res, gamma_C, gamma_Cg, gamma_Xi, C_0, C_0g, Xi_0;
+  ej_real n0_star, q1, tau;
+  bool cap;
+} c3_config;
+
+typedef struct c3_gauss {
+  ej_real max, res, b, peak; /* v(g) = (max - res) exp(-b (g - peak)^2) + res */
+} c3_gauss;
+
+typedef struct c3_state {
+  c3_config cfg;
+  ej_real K, G, X0, scale;
+  c3_gauss gC, gCg, gXi;
+} c3_state;
+
+/* Internal variables at a stress point. */
+typedef struct c3_vars {
+  ej_real gamma, epsv, C, Cg, Xi, X, kappa, Xg;
+} c3_vars;
+
+enum { C3_H_KAPPA, C3_H_GAMMA, C3_H_EPSV, C3_H_EPSP, C3_H_NFB, C3_NHIST };
+static const char *const c3_hist_names[] = {"cap_kappa", "cap_gamma", "eps_v_p", "eps_p", "cap_fallbacks", NULL};
+
+#define C3_P(f, unit, def, flags, doc) EJ_PARAM_REAL(c3_config, f, unit, def, 0, 0, flags, doc)
+static const ej_param c3_params[] = {
+    MP_ELASTIC_PARAMS(c3_config),
+    EJ_PARAM_REAL(c3_config, psi, "1", 0.8, 0.5, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Triaxial extension/compression strength ratio of the Gudehus function (003 Eq 61, Table 2)."),
+    C3_P(R, "1", 1.0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Cap aspect ratio R (003 Eq 59)."),
+    C3_P(R_g, "1", 1.0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Cap aspect ratio of the plastic potential (003 Eq 81)."),
+    EJ_PARAM_REAL(c3_config, kappa0, "Pa", -50e6, 0, 0, EJ_PF_HAS_MAX, "Initial cap branch point kappa_0 (an I1 value)."),
+    C3_P(M, "1", 0.2, EJ_PF_HAS_MIN, "Asymptotic meridional slope M of the shear hyperbola (003 Eq 57)."),
+    C3_P(M_g, "1", 0.2, EJ_PF_HAS_MIN, "Slope M_g of the plastic potential (003 Eq 79), M_g <= M."),
+    C3_P(a_t, "1", 100, EJ_PF_HAS_MIN, "Weight of tensile plastic volume strain in gamma (003 Eq 62)."),
+    C3_P(a_c, "1", 100, EJ_PF_HAS_MIN, "Weight of compactive plastic volume strain in gamma (003 Eq 62)."),
+    C3_P(a_s, "1", 50, EJ_PF_HAS_MIN, "Weight of deviatoric plastic strain in gamma (003 Eq 62)."),
+    C3_P(C_max, "Pa", 5.5e6, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Peak shear strength parameter C (003 Eq 64)."),
+    C3_P(C_maxg, "Pa", 5.5e6, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Peak C_g of the potential (003 Eq 77)."),
+    C3_P(Xi_max, "Pa", 11e6, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Peak tensile I1 limit Xi (003 Eq 65)."),
+    C3_P(C_res, "Pa", 2e6, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Residual C."),
+    C3_P(C_resg, "Pa", 2e6, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Residual C_g."),
+    C3_P(Xi_res, "Pa", 7e6, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Residual Xi."),
+    C3_P(gamma_C, "1", 1, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "gamma at the peak of C."),
+    C3_P(gamma_Cg, "1", 1, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "gamma at the peak of C_g."),
+    C3_P(gamma_Xi, "1", 1, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "gamma at the peak of Xi."),
+    C3_P(C_0, "Pa", 4.5e6, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Initial C, C_res <= C_0 <= C_max (003 Eq 66)."),
+    C3_P(C_0g, "Pa", 4.5e6, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Initial C_g."),
+    C3_P(Xi_0, "Pa", 10e6, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Initial Xi (003 Eq 67)."),
+    EJ_PARAM_REAL(c3_config, n0_star, "1", 1e-3, 0, 1, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN | EJ_PF_HAS_MAX | EJ_PF_MAX_OPEN,
+                  "Initial unloaded porosity n0* of the crush curve (003 Eq 71; 'void ratio' in the report)."),
+    C3_P(q1, "1/Pa", 1e-6, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Crush-curve rate q1 (003 Eq 71; Table 2 q1 = 1 per MPa)."),
+    C3_P(tau, "s", 0.01, EJ_PF_HAS_MIN, "Duvaut-Lions relaxation time (003 Table 2); 0 = rate independent."),
+    EJ_PARAM_BOOL(c3_config, cap, 1, "Compression cap on (003 Eq 58); off = shear/tension hyperbola only."),
+    {0}};
+
+static ej_real c3_gauss_eval(const c3_gauss *g, ej_real x)
+{
+  return (g->max - g->res) * exp(-g->b * (x - g->peak) * (x - g->peak)) + g->res;
+}
+
+/* Eqs 66-67: b = ln((max - res)/(v0 - res)) / peak^2; constant when max = res or v0 = max. */
+static c3_gauss c3_gauss_make(ej_real max, ej_real res, ej_real v0, ej_real peak)
+{
+  c3_gauss g = {.max = max, .res = res, .b = 0, .peak = peak};
+  if (max > res && v0 < max) g.b = log((max - res) / (v0 - res)) / (peak * peak);
+  return g;
+}
+
+static ej_err c3_gauss_check(ej_real max, ej_real res, ej_real v0, const char *key, ej_diag *diag)
+{
+  if (!(res <= v0 && v0 <= max)) return ej_diag_error(diag, key, "need residual <= initial <= peak");
+  if (max > res && !(v0 > res)) return ej_diag_error(diag, key, "initial value must exceed the residual one");
+  return EJ_OK;
+}
+
+static ej_err c3_check(const void *config, ej_diag *diag)
+{
+  const c3_config *c = config;
+  EJ_TRY(mp_elastic_check(c->E, c->nu, c->K, c->G, diag));
+  EJ_TRY(c3_gauss_check(c->C_max, c->C_res, c->C_0, "C_0", diag));
+  EJ_TRY(c3_gauss_check(c->C_maxg, c->C_resg, c->C_0g, "C_0g", diag));
+  EJ_TRY(c3_gauss_check(c->Xi_max, c->Xi_res, c->Xi_0, "Xi_0", diag));
+  if (c->M_g > c->M) return ej_diag_error(diag, "M_g", "M_g must not exceed M");
+  if (c->kappa0 >= c->Xi_0) return ej_diag_error(diag, "kappa0", "kappa0 must lie below Xi_0");
+  return EJ_OK;
+}
+
+/* F_f^2 of Eq 57 / 79 */
+static ej_real c3_ff2(ej_real C, ej_real M, ej_real Xi, ej_real I1)
+{
+  const ej_real a = C - M * I1, b = C - M * Xi;
+  return a * a - b * b;
+}
+
+/* Largest admissible I1 of the hyperbola (F_f = 0): Xi when C >= M Xi, else the other root
+ * 2C/M - Xi of (C - M I1)^2 = (C - M Xi)^2 (Table 2's residual values have C_res < M Xi_max). */
+static ej_real c3_tip_I1(ej_real C, ej_real M, ej_real Xi) { return C >= M * Xi ? Xi : 2 * C / M - Xi; }
+
+/* kappa from X = kappa - R F_f(kappa) (Eq 59), increasing in kappa on (-inf, Xi]: safeguarded
+ * regula falsi (Illinois). */
+static ej_real c3_kappa_of_X(ej_real X, ej_real R, ej_real C, ej_real M, ej_real Xi)
+{
+  const ej_real It = c3_tip_I1(C, M, Xi);
+  if (X >= It) return It;
+  ej_real lo = X, hi = It;
+  ej_real flo = -R * sqrt(fmax(c3_ff2(C, M, Xi, lo), 0)), fhi = It - X;
+  if (flo >= 0) return X;
+  int side = 0;
+  for (int it = 0; it < 200; ++it) {
+    ej_real k = (lo * fhi - hi * flo) / (fhi - flo);
+    if (!(k > lo && k < hi)) k = 0.5 * (lo + hi);
+    const ej_real fk = k - R * sqrt(fmax(c3_ff2(C, M, Xi, k), 0)) - X;
+    if (fk == 0 || hi - lo <= 4e-16 * (fabs(lo) + fabs(hi))) return k;
+    if (fk < 0) {
+      lo = k, flo = fk;
+      if (side == -1) fhi *= 0.5;
+      side = -1;
+    } else {
+      hi = k, fhi = fk;
+      if (side == 1) flo *= 0.5;
+      side = 1;
+    }
+  }
+  return 0.5 * (lo + hi);
+}
+
+/* X from the plastic volume strain: Eq 69 inverted, n* = (eps + n0*)/(1 + eps), and Eq 71. */
+static ej_real c3_X_of_epsv(const c3_state *s, ej_real epsv)
+{
+  const ej_real n0 = s->cfg.n0_star;
+  const ej_real ns = fmin(fmax((epsv + n0) / (1 + epsv), 1e-12 * n0), 1 - 1e-12);
+  return s->X0 + log(ns / n0) / s->cfg.q1;
+}
+
+/* Internal variables after a plastic strain increment (dev, de principal) from the state at t_n. */
+static void c3_vars_at(const c3_state *s, ej_real gamma_n, ej_real epsv_n, ej_real dev, const ej_real de[3],
+                       c3_vars *v)
+{
+  const c3_config *c = &s->cfg;
+  const ej_real nde = sqrt(de[0] * de[0] + de[1] * de[1] + de[2] * de[2]);
+  v->gamma = gamma_n + c->a_t * fmax(dev, 0) + c->a_c * fmax(-dev, 0) + c->a_s * nde; /* Eq 62 */
+  v->epsv = epsv_n + dev;
+  v->C = c3_gauss_eval(&s->gC, v->gamma);
+  v->Cg = c3_gauss_eval(&s->gCg, v->gamma);
+  v->Xi = c3_gauss_eval(&s->gXi, v->gamma);
+  if (c->cap) {
+    v->X = c3_X_of_epsv(s, v->epsv);
+    v->kappa = c3_kappa_of_X(v->X, c->R, v->C, c->M, v->Xi);
+    v->Xg = v->kappa - c->R_g * sqrt(fmax(c3_ff2(v->Cg, c->M_g, v->Xi, v->kappa), 0)); /* Eq 81 */
+  } else {
+    v->X = v->kappa = v->Xg = -INFINITY;
+  }
+}
+
+/* sqrt(F_c) F_f as a signed, continuous function of I1 (negative outside the admissible I1
+ * range, so that f > 0 there). */
+static ej_real c3_shear(ej_real C, ej_real M, ej_real Xi, ej_real kappa, ej_real X, bool cap, ej_real I1,
+                        ej_real *dQ)
+{
+  const ej_real ff2 = c3_ff2(C, M, Xi, I1), dff2 = -2 * M * (C - M * I1);
+  ej_real fc = 1, dfc = 0;
+  if (cap && I1 < kappa) {
+    const ej_real z = (I1 - kappa) / (X - kappa);
+    fc = 1 - z * z, dfc = -2 * z / (X - kappa);
+  }
+  const ej_real Q = fc * ff2, Qp = dfc * ff2 + fc * dff2;
+  const bool neg = fc < 0 || ff2 < 0;
+  const ej_real r = sqrt(fabs(Q));
+  if (dQ) *dQ = Qp / (2 * fmax(r, 1e-300)) * 1.0;
+  return neg ? -r : r;
+}
+
+/* Gamma(beta) sqrt(J2) (Eq 61) and its gradient in principal stresses. */
+static ej_real c3_lode(ej_real psi, const ej_real sg[3], ej_real grad[3], ej_real scale)
+{
+  const ej_real m = (sg[0] + sg[1] + sg[2]) / 3;
+  const ej_real sd[3] = {sg[0] - m, sg[1] - m, sg[2] - m};
+  const ej_real J2 = 0.5 * (sd[0] * sd[0] + sd[1] * sd[1] + sd[2] * sd[2]), J3 = sd[0] * sd[1] * sd[2];
+  const ej_real rJ2 = sqrt(J2);
+  if (!(rJ2 > 1e-13 * scale)) {
+    if (grad) grad[0] = grad[1] = grad[2] = 0;
+    return rJ2 * 0.5 * (1 + 1 / psi);
+  }
+  ej_real S = -1.5 * sqrt(3.0) * J3 / (J2 * rJ2);
+  S = fmin(fmax(S, -1.0), 1.0);
+  const ej_real Gam = 0.5 * (1 + S + (1 - S) / psi), dGdS = 0.5 * (1 - 1 / psi);
+  if (grad) {
+    for (int A = 0; A < 3; ++A) {
+      const ej_real dJ3 = sd[A] * sd[A] - 2.0 / 3.0 * J2;
+      const ej_real dS = -1.5 * sqrt(3.0) * (dJ3 / (J2 * rJ2) - 1.5 * J3 * sd[A] / (J2 * J2 * rJ2));
+      grad[A] = Gam * sd[A] / (2 * rJ2) + rJ2 * dGdS * dS;
+    }
+  }
+  return Gam * rJ2;
+}
+
+typedef struct c3_ctx {
+  const c3_state *s;
+  ej_real tr[3], gamma_n, epsv_n, sc; /* sc: stress scale of this point (tolerances) */
+} c3_ctx;
+
+/* Residual of Eq 86 with rows 4-5 eliminated: x = (sigma_1..3, dlambda). */
+static void c3_residual(const c3_ctx *c, const ej_real x[4], ej_real R[4], c3_vars *vout)
+{
+  const c3_state *s = c->s;
+  const ej_real K = s->K, G = s->G, lam = s->K - 2 * s->G / 3;
+  const ej_real I1 = x[0] + x[1] + x[2], I1tr = c->tr[0] + c->tr[1] + c->tr[2];
+  const ej_real dev = (I1tr - I1) / (9 * K);
+  ej_real de[3];
+  for (int A = 0; A < 3; ++A) de[A] = ((c->tr[A] - I1tr / 3) - (x[A] - I1 / 3)) / (2 * G);
+  c3_vars v;
+  c3_vars_at(s, c->gamma_n, c->epsv_n, 3 * dev, de, &v);
+  ej_real gl[3], dQ;
+  c3_lode(s->cfg.psi, x, gl, s->scale);
+  c3_shear(v.Cg, s->cfg.M_g, v.Xi, v.kappa, v.Xg, s->cfg.cap, I1, &dQ);
+  ej_real dg[3];
+  for (int A = 0; A < 3; ++A) dg[A] = gl[A] - dQ;
+  const ej_real tdg = dg[0] + dg[1] + dg[2];
+  for (int A = 0; A < 3; ++A) R[A] = x[A] - c->tr[A] + x[3] * (2 * G * dg[A] + lam * tdg); /* Eq 87 */
+  R[3] = c3_lode(s->cfg.psi, x, NULL, s->scale) - c3_shear(v.C, s->cfg.M, v.Xi, v.kappa, v.X, s->cfg.cap, I1, NULL);
+  if (vout) *vout = v;
+}
+
+static ej_real c3_rnorm(const ej_real R[4]) { return sqrt(R[0] * R[0] + R[1] * R[1] + R[2] * R[2] + R[3] * R[3]); }
+
+/* 4x4 solve with partial pivoting; returns 0 if singular. */
+static int c3_solve4(ej_real J[4][4], ej_real b[4])
+{
+  for (int c = 0; c < 4; ++c) {
+    int p = c;
+    for (int r = c + 1; r < 4; ++r)
+      if (fabs(J[r][c]) > fabs(J[p][c])) p = r;
+    if (!(fabs(J[p][c]) > 0)) return 0;
+    for (int k = 0; k < 4; ++k) {
+      const ej_real t = J[c][k];
+      J[c][k] = J[p][k], J[p][k] = t;
+    }
+    const ej_real t = b[c];
+    b[c] = b[p], b[p] = t;
+    for (int r = c + 1; r < 4; ++r) {
+      const ej_real f = J[r][c] / J[c][c];
+      for (int k = c; k < 4; ++k) J[r][k] -= f * J[c][k];
+      b[r] -= f * b[c];
+    }
+  }
+  for (int r = 3; r >= 0; --r) {
+    for (int k = r + 1; k < 4; ++k) b[r] -= J[r][k] * b[k];
+    b[r] /= J[r][r];
+  }
+  return 1;
+}
+
+/* Newton on the residual; returns 1 when converged to an admissible state. */
+static int c3_newton(const c3_ctx *c, ej_real x[4], c3_vars *v)
+{
+  const ej_real sc = c->sc, G = c->s->G;
+  ej_real R[4];
+  c3_residual(c, x, R, v);
+  ej_real rn = c3_rnorm(R);
+  for (int it = 0; it < 60; ++it) {
+    if (rn <= 1e-13 * sc) return x[3] >= 0;
+    ej_real J[4][4];
+    for (int k = 0; k < 4; ++k) {
+      ej_real xp[4] = {x[0], x[1], x[2], x[3]}, Rp[4];
+      const ej_real h = k < 3 ? 1e-7 * fmax(sc, fabs(x[k])) : 1e-7 * fmax(1e-3 * sc / G, fabs(x[3]));
+      xp[k] += h;
+      c3_residual(c, xp, Rp, NULL);
+      for (int r = 0; r < 4; ++r) J[r][k] = (Rp[r] - R[r]) / h;
+    }
+    ej_real dx[4] = {-R[0], -R[1], -R[2], -R[3]};
+    if (!c3_solve4(J, dx)) return 0;
+    ej_real t = 1;
+    for (int ls = 0; ls < 30; ++ls, t *= 0.5) {
+      ej_real xn[4], Rn[4];
+      for (int k = 0; k < 4; ++k) xn[k] = x[k] + t * dx[k];
+      c3_residual(c, xn, Rn, v);
+      const ej_real rnn = c3_rnorm(Rn);
+      if (rnn < rn || ls == 29) {
+        memcpy(x, xn, sizeof xn);
+        memcpy(R, Rn, sizeof Rn);
+        rn = rnn;
+        break;
+      }
+    }
+  }
+  return rn <= 1e-9 * sc && x[3] >= 0;
+}
+
+/* Hydrostatic return to I1 = target(I1) (tension tip Xi, or cap tip X): bisection on
+ * h(I1) = I1 - tip(vars(I1)) between the trial I1 and the tip at t_n. */
+static int c3_tip(const c3_ctx *c, bool tension, ej_real x[4], c3_vars *v)
+{
+  const c3_state *s = c->s;
+  const ej_real I1tr = c->tr[0] + c->tr[1] + c->tr[2];
+  ej_real de[3];
+  for (int A = 0; A < 3; ++A) de[A] = (c->tr[A] - I1tr / 3) / (2 * s->G);
+  ej_real lo = 0, hi = 0;
+  c3_vars w;
+  c3_vars_at(s, c->gamma_n, c->epsv_n, 0, de, &w);
+  const ej_real lowest = fmin(s->cfg.Xi_res, 2 * s->cfg.C_res / fmax(s->cfg.M, 1e-300) - s->cfg.Xi_max);
+  ej_real a = I1tr, b = tension ? fmin(lowest, I1tr) : fmax(w.X, I1tr);
+  for (int it = 0; it < 200; ++it) {
+    const ej_real I1 = 0.5 * (a + b);
+    c3_vars_at(s, c->gamma_n, c->epsv_n, (I1tr - I1) / (3 * s->K), de, &w);
+    const ej_real h = I1 - (tension ? c3_tip_I1(w.C, s->cfg.M, w.Xi) : w.X);
+    if ((h > 0) == tension) a = I1; /* tension: I1 too large; cap: I1 too small */
+    else b = I1;
+    lo = a, hi = b;
+    if (fabs(b - a) <= 1e-15 * (fabs(a) + fabs(b)) + 1e-300) break;
+  }
+  const ej_real I1 = 0.5 * (lo + hi);
+  c3_vars_at(s, c->gamma_n, c->epsv_n, (I1tr - I1) / (3 * s->K), de, v);
+  x[0] = x[1] = x[2] = I1 / 3;
+  x[3] = 0;
+  return isfinite(I1);
+}
+
+/* Rate-independent return of principal trial stresses. Returns 1 if the radial fallback was used. */
+static int c3_return(const c3_state *s, const ej_real tr[3], ej_real gamma_n, ej_real epsv_n, ej_real out[3],
+                     c3_vars *v)
+{
+  c3_ctx c = {.s = s, .tr = {tr[0], tr[1], tr[2]}, .gamma_n = gamma_n, .epsv_n = epsv_n};
+  c.sc = fmax(s->scale, fmax(fabs(tr[0]), fmax(fabs(tr[1]), fabs(tr[2]))));
+  ej_real x[4] = {tr[0], tr[1], tr[2], 0}, R[4];
+  c3_residual(&c, x, R, v);
+  if (R[3] <= 1e-12 * c.sc) { /* elastic (f at the state of t_n: zero increment) */
+    memcpy(out, tr, 3 * sizeof *out);
+    return 0;
+  }
+  if (c3_newton(&c, x, v)) {
+    const ej_real I1 = x[0] + x[1] + x[2];
+    if (I1 <= c3_tip_I1(v->C, s->cfg.M, v->Xi) + 1e-12 * c.sc && (!s->cfg.cap || I1 >= v->X - 1e-12 * c.sc)) {
+      memcpy(out, x, 3 * sizeof *out);
+      return 0;
+    }
+  }
+  const ej_real I1tr = tr[0] + tr[1] + tr[2];
+  c3_vars w;
+  c3_vars_at(s, gamma_n, epsv_n, 0, (ej_real[3]){0, 0, 0}, &w);
+  const bool tension = !s->cfg.cap || I1tr > 0.5 * (w.kappa + c3_tip_I1(w.C, s->cfg.M, w.Xi));
+  if (c3_tip(&c, tension, x, v)) {
+    ej_real Rt[4];
+    c3_residual(&c, x, Rt, NULL);
+    if (fabs(Rt[3]) <= 1e-8 * s->scale || (tension && c3_lode(s->cfg.psi, tr, NULL, s->scale) < 1e-12 * s->scale)) {
+      memcpy(out, x, 3 * sizeof *out);
+      return 0;
+    }
+  }
+  /* Radial fallback: bisection between an interior hydrostatic point and the trial stress. */
+  const ej_real It = c3_tip_I1(w.C, s->cfg.M, w.Xi);
+  const ej_real I1in = s->cfg.cap ? 0.5 * (w.kappa + It) : It - w.C;
+  ej_real a = 0, b = 1;
+  for (int it = 0; it < 100; ++it) {
+    const ej_real t = 0.5 * (a + b);
+    for (int A = 0; A < 3; ++A) x[A] = I1in / 3 + t * (tr[A] - I1in / 3);
+    x[3] = 0;
+    c3_residual(&c, x, R, v);
+    if (R[3] > 0) b = t;
+    else a = t;
+  }
+  for (int A = 0; A < 3; ++A) out[A] = I1in / 3 + a * (tr[A] - I1in / 3);
+  c3_residual(&c, (ej_real[4]){out[0], out[1], out[2], 0}, R, v);
+  return 1;
+}
+
+static ej_err c3_create(const void *config, void **state)
+{
+  EJ_ENSURE(config && state, EJ_ERR_ARG, "cap3: NULL config or state");
+  const c3_config *cfg = config;
+  c3_state tmp = {.cfg = *cfg};
+  const char *msg = mp_elastic_resolve(cfg->E, cfg->nu, cfg->K, cfg->G, &tmp.K, &tmp.G);
+  EJ_ENSURE(!msg, EJ_ERR_ARG, "cap3: %s", msg ? msg : "");
+  tmp.gC = c3_gauss_make(cfg->C_max, cfg->C_res, cfg->C_0, cfg->gamma_C);
+  tmp.gCg = c3_gauss_make(cfg->C_maxg, cfg->C_resg, cfg->C_0g, cfg->gamma_Cg); /* erratum item 15 */
+  tmp.gXi = c3_gauss_make(cfg->Xi_max, cfg->Xi_res, cfg->Xi_0, cfg->gamma_Xi);
+  tmp.X0 = cfg->kappa0 - cfg->R * sqrt(fmax(c3_ff2(cfg->C_0, cfg->M, cfg->Xi_0, cfg->kappa0), 0)); /* Eq 59 */
+  tmp.scale = fmax(cfg->C_max, 1e-300);
+  c3_state *s = ej_malloc(sizeof *s);
+  EJ_ENSURE(s, EJ_ERR_MEM, "cap3: out of memory");
+  *s = tmp;
+  *state = s;
+  return EJ_OK;
+}
+
+static ej_err c3_init_hist(const void *state, ej_idx n, ej_real *const *hist)
+{
+  const c3_state *s = state;
+  for (ej_idx i = 0; i < n; ++i) {
+    hist[C3_H_KAPPA][i] = s->cfg.kappa0;
+    hist[C3_H_GAMMA][i] = hist[C3_H_EPSV][i] = hist[C3_H_EPSP][i] = hist[C3_H_NFB][i] = 0;
+  }
+  return EJ_OK;
+}
+
+static ej_err c3_update(const void *state, ej_mat_batch *b)
+{
+  const c3_state *s = state;
+  const ej_real K = s->K, G = s->G;
+  const ej_real theta = mp_duvaut_lions_theta(b->dt, s->cfg.tau);
+  for (ej_idx i = 0; i < b->n; ++i) {
+    ej_real *sig = b->stress + 6 * (size_t)i;
+    ej_real tr[6], lam[3], V[9], pr[3], qs[6];
+    mp_elastic_trial(tr, sig, b->d + 6 * (size_t)i, K, G, b->dt);
+    ej_s6_eig(lam, V, tr); /* Box 4.1 step 2: principal directions of the trial state */
+    c3_vars v;
+    const int fb = c3_return(s, lam, b->hist[C3_H_GAMMA][i], b->hist[C3_H_EPSV][i], pr, &v);
+    ej_s6_from_eig(qs, pr, V);
+    for (int k = 0; k < 6; ++k) sig[k] = tr[k] + theta * (qs[k] - tr[k]); /* Duvaut-Lions */
+    b->hist[C3_H_GAMMA][i] += theta * (v.gamma - b->hist[C3_H_GAMMA][i]);
+    b->hist[C3_H_KAPPA][i] += theta * ((s->cfg.cap ? v.kappa : s->cfg.kappa0) - b->hist[C3_H_KAPPA][i]);
+    ej_real dv, de[6], work;
+    mp_plastic_increment(tr, sig, K, G, &dv, de, &work);
+    b->hist[C3_H_EPSV][i] += dv;
+    b->hist[C3_H_EPSP][i] += sqrt(2.0 / 3.0 * ej_s6_ddot(de, de));
+    b->hist[C3_H_NFB][i] += fb;
+    if (b->w_plastic) b->w_plastic[i] = b->rho[i] > 0 ? work / b->rho[i] : 0.0;
+    if (b->c) b->c[i] = mp_sound_speed(K, G, b->rho[i]);
+  }
+  return EJ_OK;
+}
+
+static ej_err c3_moduli(const void *state, ej_real *K, ej_real *G)
+{
+  const c3_state *s = state;
+  *K = s->K, *G = s->G;
+  return EJ_OK;
+}
+
+static void c3_destroy(void *state) { ej_free(state); }
+
+static const ej_material_ops c3_ops = {
+    .struct_size = sizeof(ej_material_ops),
+    .name = "cap3",
+    .summary = "Three-invariant viscoplastic cap model (hyperbolic GeoModel variant, Chi et al. 2017)",
+    .doc = "Hyperbolic shear/tension surface, elliptical cap on a porosity crush curve, Gudehus Lode function, "
+           "Gaussian hardening/softening of C and Xi, non-associated potential, spectral backward-Euler return "
+           "(003 Eqs 57-87 with the Eq 73/74/77/80 errata), Duvaut-Lions overstress. History: cap_kappa, "
+           "cap_gamma, eps_v_p, eps_p, cap_fallbacks.",
+    .params = c3_params,
+    .config_size = sizeof(c3_config),
+    .check_config = c3_check,
+    .n_hist = C3_NHIST,
+    .hist_names = c3_hist_names,
+    .needs_eos = false,
+    .create = c3_create,
+    .init_hist = c3_init_hist,
+    .update = c3_update,
+    .destroy = c3_destroy,
+    .moduli = c3_moduli,
+};
+
+static ej_err c3_register(ej_registry *reg)
+{
+  EJ_TRY(ej_register_material(reg, &c3_ops));
+  return EJ_OK;
+}
+
+EJ_PLUGIN_DEFINE(cap3, "0.1.0", "BSD-3-Clause", "Three-invariant viscoplastic cap model (Chi et al. 2017)",
+                 c3_register)
