@@ -10,8 +10,10 @@
 #include <string.h>
 
 #include "core_impl.h"
+#include "validation_common.h"
 
 const ej_plugin_info *ej_plugin_pd_info(void);
+const ej_plugin_info *ej_plugin_rigid_indenter_info(void);
 
 typedef struct pd_fix {
   ej_registry *reg;
@@ -78,6 +80,10 @@ static void fix_start(pd_fix *f, bool copy_x0)
   ck_assert_int_eq(f->ops->setup(f->state, f->set), EJ_OK);
   ck_assert_int_eq(f->ops->support(f->state, f->set, (ej_range){0, n}, f->set->radius), EJ_OK);
   ck_assert_int_eq(ej_nbrlist_build(f->list, 3, x0, f->set->radius, n, x0, f->set->radius, n, 0.0, true), EJ_OK);
+  /* the core's bond flags, as ej_lists_from_build makes them for a reference family */
+  f->set->n_bonds = f->list->pub.off[n];
+  f->set->bond_flags = ej_calloc((size_t)f->set->n_bonds + 1, 1);
+  ck_assert_ptr_nonnull(f->set->bond_flags);
 }
 
 static void fix_compute(pd_fix *f)
@@ -330,6 +336,20 @@ START_TEST(test_breaking_and_damage)
   ck_assert_msg(d[2] == 1.0 && d[0] == 0.0, "damage ends %g %g", d[0], d[2]);
   const int32_t *nb = ej_set_field_int(f.set, "n_broken");
   ck_assert(nb[1] == 1 && nb[2] == 1 && nb[0] == 0);
+  /* the broken bond is recorded in the core's bond flags (bit 0), from both ends */
+  {
+    const uint8_t *fl = ej_set_bond_flags(f.set);
+    const ej_off *off = f.list->pub.off;
+    const ej_idx *idx = f.list->pub.idx;
+    int n_flag = 0;
+    for (ej_idx i = 0; i < 3; ++i)
+      for (ej_off k = off[i]; k < off[i + 1]; ++k)
+        if (fl[k] & 1u) {
+          ++n_flag;
+          ck_assert((i == 1 && idx[k] == 2) || (i == 2 && idx[k] == 1));
+        }
+    ck_assert_int_eq(n_flag, 2);
+  }
   /* irreversible: back to the reference positions, the bond stays broken and exerts no force */
   memcpy(x, x0, 9 * sizeof *x);
   x[6] = x0[6] + 1e-9;
@@ -408,6 +428,158 @@ START_TEST(test_config_errors)
 }
 END_TEST
 
+/* A notch segment (notch_a-notch_b) between particle 0 and particles 1, 2 leaves their bonds out of
+ * the family: no force across it and no damage from it; the bond 1-2 on one side is kept. */
+START_TEST(test_notch)
+{
+  pd_fix f;
+  fix_open(&f, 0, 3);
+  set_real(&f, "horizon", 2.5e-3), set_real(&f, "c", 1e20), set_real(&f, "lattice_spacing", 1e-3);
+  set_bool(&f, "contact", false);
+  ej_real *na = (ej_real *)((char *)f.cfg + find_param(f.ops->params, "notch_a")->offset);
+  ej_real *nb = (ej_real *)((char *)f.cfg + find_param(f.ops->params, "notch_b")->offset);
+  na[0] = -1e-3, na[1] = 0.5e-3, nb[0] = 1e-3, nb[1] = 0.5e-3;
+  ej_real *x = ej_set_field(f.set, "x"), *x0 = ej_set_field(f.set, "x0");
+  memset(x0, 0, 9 * sizeof *x0);
+  x0[4] = 1e-3, x0[7] = 2e-3;
+  memcpy(x, x0, 9 * sizeof *x);
+  set_mass(&f, 2200, 1e-9);
+  fix_start(&f, false);
+  x[1] = -1e-6; /* stretch 0-1 and 0-2 (cut) */
+  x[7] = 2.001e-3; /* stretch 1-2 (kept) */
+  fix_compute(&f);
+  fix_post(&f);
+  const ej_real *a = ej_set_field(f.set, "a"), *d = ej_set_field(f.set, "damage");
+  ck_assert_msg(a[0] == 0.0 && a[1] == 0.0 && a[2] == 0.0, "force across the notch: %g %g", a[0], a[1]);
+  ck_assert_msg(a[4] > 0.0 && a[7] < 0.0, "bond 1-2 lost: %g %g", a[4], a[7]);
+  ck_assert(d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0);
+  fix_close(&f);
+}
+END_TEST
+
+/* ------------------------------------------------------------------ restart and threads */
+
+/* A PMB block (10 x 8 x 8 lattice, 640 particles: two chunks) shattered by a spherical indenter
+ * at 300 m/s, touching at t = 0: bonds break before the cut at step 30. The same scene through the whole core
+ * (scene, sim, checkpoint, restart), as tests/unit/test_determinism.c does for SPH. */
+static const char pd_scene[] =
+    "ejecta: 1\n"
+    "dimension: 3\n"
+    "time: {end: 1.0, dt: 1.0e-7}\n"
+    "output: {file: pd.h5, every: 1.0, fields: [v, damage]}\n"
+    "materials:\n"
+    "  glass: {rho0: 2200}\n"
+    "sets:\n"
+    "  target:\n"
+    "    method: pd\n"
+    "    model: pmb\n"
+    "    material: glass\n"
+    "    shape: {box: {min: [-0.0025, -0.002, -0.002], max: [0.0025, 0.002, 0.002]}}\n"
+    "    spacing: 0.0005\n"
+    "    horizon: 0.0015001\n"
+    "    c: 1.6863e22\n"
+    "    s00: 0.0005\n"
+    "    alpha: 0.25\n"
+    "    lattice_spacing: 0.0005\n"
+    "interactions:\n"
+    "  - {model: rigid_indenter, sets: [target], shape: sphere, center: [0, 0.0032, 0], velocity: [0, -300, 0],\n"
+    "     radius: 0.0015, K: 1e17, per_volume: true}\n";
+
+typedef struct pd_snap {
+  ej_idx n;
+  int64_t step;
+  double *x, *v, *d; /* by particle id */
+  int64_t broken;
+} pd_snap;
+
+static void pd_run(const char *dir, const char *out_name, int threads, int64_t steps, const char *restart, pd_snap *sn)
+{
+  char scene[128], out[128];
+  snprintf(scene, sizeof scene, "%s/pd.yaml", dir);
+  snprintf(out, sizeof out, "%s/%s", dir, out_name);
+  ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .restart = restart, .threads = threads};
+  vrun r;
+  memset(&r, 0, sizeof r);
+  ck_assert_int_eq(ej_registry_create(&r.reg), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(r.reg, ej_plugin_pd_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(r.reg, ej_plugin_rigid_indenter_info()), EJ_OK);
+  ej_err rc = ej_scene_load(scene, r.reg, &r.scene);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  r.scene->max_steps = steps;
+  rc = ej_sim_create(r.scene, r.reg, &opts, &r.sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  vrun_run(&r);
+  ck_assert_int_eq(r.sim->step, steps);
+  const ej_set *s = r.sim->sets[0];
+  const ej_idx n = ej_set_count(s);
+  const int32_t *id = ej_set_field_int(s, "id"), *nb = ej_set_field_int(s, "n_broken");
+  const ej_real *x = ej_set_field(s, "x"), *v = ej_set_field(s, "v"), *d = ej_set_field(s, "damage");
+  sn->n = n;
+  sn->step = r.sim->step;
+  sn->x = calloc((size_t)n * 3, sizeof(double));
+  sn->v = calloc((size_t)n * 3, sizeof(double));
+  sn->d = calloc((size_t)n, sizeof(double));
+  ck_assert(sn->x && sn->v && sn->d);
+  sn->broken = 0;
+  for (ej_idx i = 0; i < n; ++i) {
+    const ej_idx k = id[i];
+    ck_assert(k >= 0 && k < n);
+    memcpy(sn->x + 3 * k, x + 3 * i, 3 * sizeof(double));
+    memcpy(sn->v + 3 * k, v + 3 * i, 3 * sizeof(double));
+    sn->d[k] = d[i];
+    sn->broken += nb[i];
+  }
+  /* the core's flags agree with the per-particle counts */
+  const uint8_t *fl = ej_set_bond_flags(s);
+  int64_t nflag = 0;
+  for (ej_off k = 0; k < s->n_bonds; ++k) nflag += fl[k] & 1u;
+  ck_assert_int_eq(nflag, sn->broken);
+  vrun_free(&r);
+}
+
+static void pd_snap_equal(const pd_snap *a, const pd_snap *b, const char *what)
+{
+  ck_assert_int_eq(a->n, b->n);
+  ck_assert_int_eq(a->step, b->step);
+  ck_assert_msg(a->broken == b->broken, "%s: %lld vs %lld broken bonds", what, (long long)a->broken,
+                (long long)b->broken);
+  const size_t n = (size_t)a->n;
+  ck_assert_msg(memcmp(a->x, b->x, 3 * n * sizeof(double)) == 0, "%s: x differs", what);
+  ck_assert_msg(memcmp(a->v, b->v, 3 * n * sizeof(double)) == 0, "%s: v differs", what);
+  ck_assert_msg(memcmp(a->d, b->d, n * sizeof(double)) == 0, "%s: damage differs", what);
+}
+
+static void pd_snap_free(pd_snap *s) { free(s->x), free(s->v), free(s->d); }
+
+START_TEST(test_restart_and_threads_bitwise)
+{
+  char dir[64], half[128];
+  vrun_dir(dir, sizeof dir, "pdrs");
+  char scene[128];
+  snprintf(scene, sizeof scene, "%s/pd.yaml", dir);
+  vrun_write(scene, pd_scene);
+  snprintf(half, sizeof half, "%s/half.h5", dir);
+  enum { STEPS = 60 };
+  pd_snap full, first, cont, one;
+  pd_run(dir, "full.h5", 2, STEPS, NULL, &full);
+  pd_run(dir, "half.h5", 2, STEPS / 2, NULL, &first);
+  pd_run(dir, "cont.h5", 2, STEPS, half, &cont);
+  pd_run(dir, "one.h5", 1, STEPS, NULL, &one);
+  ck_assert_int_gt(full.n, 512);
+  /* the restart must carry broken bonds: some broke before the cut, more after it */
+  ck_assert_msg(first.broken > 0 && full.broken > first.broken, "broken bonds %lld at the cut, %lld at the end",
+                (long long)first.broken, (long long)full.broken);
+  pd_snap_equal(&full, &cont, "uninterrupted vs restarted");
+  pd_snap_equal(&full, &one, "2 threads vs 1 thread");
+  pd_snap_free(&full), pd_snap_free(&first), pd_snap_free(&cont), pd_snap_free(&one);
+  const char *names[] = {"pd.yaml", "full.h5", "full.xdmf", "half.h5", "half.xdmf", "cont.h5", "cont.xdmf",
+                         "one.h5", "one.xdmf"};
+  vrun_cleanup(dir, names, 9);
+}
+END_TEST
+
 int main(void)
 {
   Suite *s = suite_create("pd");
@@ -421,6 +593,8 @@ int main(void)
   tcase_add_test(tc, test_breaking_and_damage);
   tcase_add_test(tc, test_ten_steps);
   tcase_add_test(tc, test_config_errors);
+  tcase_add_test(tc, test_notch);
+  tcase_add_test(tc, test_restart_and_threads_bitwise);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

@@ -31,6 +31,8 @@ def scene(out, dx, rho2, K2, form, t_end, left="tlpd", alpha=0.0):
         v = v0 * np.cos(np.pi * (xm - xc) / W) ** 2
         lines.append(f"      - {{region: {{box: {{min: [{a:.9g}], max: [{b:.9g}]}}}}, velocity: [{v:.9g}]}}")
     init = "\n".join(lines)
+    # the paper's coupling goes with the paper's PD force (000 Eq 9, difference form)
+    ff = "\n    force_form: difference" if (left == "tlpd" and form == "paper") else ""
     if left == "tlpd":
         rock = "{model: elastic, rho0: 2000, E: 1e9, nu: 0.0}"
         inter = f"{{model: pd_sph, sets: [bar, fluid], form: {form}, alpha: {alpha}, beta: 0.0}}"
@@ -47,7 +49,7 @@ materials:
 sets:
   bar:
     method: {left}
-    material: rock
+    material: rock{ff}
     shape: {{box: {{min: [0], max: [0.5]}}}}
     spacing: {dx}
     initial:

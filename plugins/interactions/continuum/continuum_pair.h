@@ -104,9 +104,14 @@ static inline ej_real cpl_h(const cpl_side *s, ej_idx i)
 
 static inline ej_real cpl_c(const cpl_side *s, ej_idx i) { return s->c ? s->c[i] : s->c_fallback; }
 
-/* Adds the pair terms of the neighbours j (of side b) to particles i in r (of side a). */
-static inline void cpl_gather(const cpl_params *P, const cpl_side *A, const cpl_side *B, const ej_nbr *ab,
-                              ej_range r)
+/* Adds the pair terms of the neighbours j (of side b) to particles i in r (of side a).
+ * wa, wb (0 or 1) say whose stress enters S_ij; ea is side a's share of the viscous heat. The
+ * symmetric coupling uses wa = wb = 1, ea = 1/2. The traction coupling of a PD solid (whose own
+ * operator already carries its free-surface response) uses only the fluid's stress: from the
+ * solid's side wa = 0, wb = 1, ea = 0; from the fluid's side wa = 1, wb = 0, ea = 1. Both sides
+ * then compute the same S_ij, and E_a + E_b = S_ij still holds. */
+static inline void cpl_gather_w(const cpl_params *P, const cpl_side *A, const cpl_side *B, const ej_nbr *ab,
+                                ej_range r, ej_real wa, ej_real wb, ej_real ea)
 {
   const int dim = A->dim;
   const ej_real sigma_k = sph_kernel_sigma(P->kernel, dim);
@@ -142,14 +147,14 @@ static inline void cpl_gather(const cpl_params *P, const cpl_side *A, const cpl_
       ej_real S[9], Si[9];
       {
         /* standard: sigma_i/rho_i^2 + sigma_j/rho_j^2; volume: (sigma_i + sigma_j)/(rho_i rho_j) */
-        const ej_real wi = P->form == CPL_FORM_STANDARD ? irho2_i : 1.0 / (rho_i * B->rho[j]);
-        const ej_real wj = P->form == CPL_FORM_STANDARD ? irho2_j : wi;
+        const ej_real wi = wa * (P->form == CPL_FORM_STANDARD ? irho2_i : 1.0 / (rho_i * B->rho[j]));
+        const ej_real wj = wb * (P->form == CPL_FORM_STANDARD ? irho2_j : 1.0 / (rho_i * B->rho[j]));
         ej_real t[6];
         for (int q = 0; q < 6; ++q) t[q] = si[q] * wi + sj[q] * wj;
         t[0] -= pi, t[1] -= pi, t[2] -= pi;
         ej_s6_to_m3(S, t);
         for (int q = 0; q < 6; ++q) t[q] = si[q] * wi;
-        t[0] -= 0.5 * pi, t[1] -= 0.5 * pi, t[2] -= 0.5 * pi;
+        t[0] -= ea * pi, t[1] -= ea * pi, t[2] -= ea * pi;
         ej_s6_to_m3(Si, t);
       }
       ej_real Sg[3], Sig[3];
@@ -164,6 +169,12 @@ static inline void cpl_gather(const cpl_params *P, const cpl_side *A, const cpl_
     if (A->e_dot) A->e_dot[i] += de;
     if (A->rho_dot) A->rho_dot[i] += rho_i * drho;
   }
+}
+
+static inline void cpl_gather(const cpl_params *P, const cpl_side *A, const cpl_side *B, const ej_nbr *ab,
+                              ej_range r)
+{
+  cpl_gather_w(P, A, B, ab, r, 1, 1, 0.5);
 }
 
 #endif /* EJ_CONTINUUM_PAIR_H */

@@ -1,8 +1,13 @@
 /* Interaction `pd_sph`: coupling of a peridynamic solid (tlpd: soil, rock) and a fluid set
  * (sph or ulpd: explosive products, air), Fan & Li (000) §2.4.
  *
- * form: pairwise (default) — the momentum- and energy-conserving pair terms of
- *   continuum_pair.h: equal and opposite forces, exact conservation. Use it for production.
+ * form: pairwise (default) — equal and opposite pair forces from the fluid's stress only
+ *   (the "traction" weights of continuum_pair.h): the solid's own stress acts through its PD
+ *   operator, whose truncated families at the interface already give the solid's side of the
+ *   traction; adding the solid's stress again (the symmetric SPH form) would count it twice and
+ *   makes the interface stiff. Neither weighting transmits a plane wave within 3 % yet
+ *   (validation/pd_sph_impedance: fluid -59 %, both +84 % on T for Z2/Z1 = 0.35). Exact
+ *   momentum and energy conservation with either.
  * form: paper — 000 Eqs 39-42 with the sign corrections of the digest (§1.5, errata 11-12):
  *   PD side (particle I of the solid, fluid neighbours J inside its horizon):
  *     rho0_I a_I += sum_J w(|X_IJ|) (P_J - P_I) K_I^-1 X_IJ V_J                      (Eq 39)
@@ -33,6 +38,7 @@ enum { PDSPH_W_CONSTANT = 0, PDSPH_W_CONICAL2 = 1 };
 
 typedef struct pd_sph_config {
   int form;
+  int pair_stress;
   int kernel;
   ej_real alpha, beta, eta, h_factor;
   ej_real horizon;
@@ -41,6 +47,7 @@ typedef struct pd_sph_config {
 } pd_sph_config;
 
 static const char *const pd_sph_forms[] = {"pairwise", "paper", NULL};
+static const char *const pd_sph_pair_stress[] = {"fluid", "both", NULL};
 static const char *const pd_sph_kernels[] = {"cubic_spline", "wendland_c2", NULL};
 static const char *const pd_sph_influences[] = {"constant", "conical2", NULL};
 
@@ -48,6 +55,9 @@ static const ej_param pd_sph_params[] = {
     EJ_PARAM_ENUM(pd_sph_config, form, pd_sph_forms, "pairwise",
                   "pairwise: equal and opposite pair forces (exact momentum and energy); paper: 000 Eqs 39-42 "
                   "with the digest's sign corrections (approximate momentum exchange)."),
+    EJ_PARAM_ENUM(pd_sph_config, pair_stress, pd_sph_pair_stress, "fluid",
+                  "form pairwise: whose stress enters the pair term: fluid (the solid's own PD operator carries "
+                  "its side) or both (the symmetric SPH form of the continuum interaction)."),
     EJ_PARAM_ENUM(pd_sph_config, kernel, pd_sph_kernels, "cubic_spline", "SPH kernel of the fluid-side sums."),
     EJ_PARAM_REAL(pd_sph_config, alpha, "1", 1.0, 0, 10, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Monaghan viscosity, linear coefficient, on approaching interface pairs."),
@@ -213,7 +223,10 @@ static ej_err pd_sph_compute(void *state, ej_set *a, ej_set *b, const ej_nbr *ab
   EJ_TRY(cpl_bind(&B, b, "pd_sph", s->cfg.h_factor));
   const bool a_is_solid = a == s->solid;
   if (s->cfg.form == PDSPH_PAIRWISE) {
-    cpl_gather(&s->P, &A, &B, ab, r);
+    /* traction form (file comment): only the fluid's stress enters the pair term */
+    if (s->cfg.pair_stress == 1) cpl_gather(&s->P, &A, &B, ab, r);
+    else if (a_is_solid) cpl_gather_w(&s->P, &A, &B, ab, r, 0, 1, 0);
+    else cpl_gather_w(&s->P, &A, &B, ab, r, 1, 0, 1);
   } else if (a_is_solid) {
     EJ_TRY(pd_sph_paper_solid(s, &A, &B, a, ab, r));
   } else {

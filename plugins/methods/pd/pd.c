@@ -26,9 +26,11 @@
  *    LAMMPS stores a force density f and the density as the "mass" (atom_style peri); ejecta
  *    integrates a = F / m with F = V_i f and m = rho V_i: the same accelerations.
  *
- * Layout: the core builds the fixed families (EJ_NBR_REFERENCE) once; this plugin keeps per-bond
- * r0, c V_j scale (folded) and an alive flag, aligned with the CSR entries, built lazily on the
- * first compute (the families do not exist before: setup runs before the core sorts the set).
+ * Layout: the core builds the fixed families (EJ_NBR_REFERENCE) once and owns one flag byte per
+ * bond (checkpointed): bit 0 = broken. This plugin keeps per-bond r0 and c V_j scale (folded, 0 for
+ * a broken bond), aligned with the CSR entries and recomputed from x0, vol0 and the flags on the
+ * first compute (the families do not exist before: setup runs before the core sorts the set), so a
+ * restarted run continues with the same broken bonds.
  * The contact search needs the current configuration, which a reference-family method does not
  * get from the core: a hashed cell grid with a Verlet skin, rebuilt inside the plugin when a
  * particle has moved more than half the skin.
@@ -59,6 +61,7 @@ typedef struct pd_config {
   bool volume_scaling;
   bool contact;
   ej_real contact_skin;
+  ej_real notch_a[3], notch_b[3];
 } pd_config;
 
 static const ej_param pd_params[] = {
@@ -92,6 +95,11 @@ static const ej_param pd_params[] = {
     EJ_PARAM_REAL(pd_config, contact_skin, "1", 0.35, 0.0, 0.0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN | EJ_PF_EXPERT,
                   "Verlet skin of the contact list in lattice spacings; the list is rebuilt when a particle has "
                   "moved half of it."),
+    EJ_PARAM_ARRAY(pd_config, notch_a, 3, "m", 0,
+                   "First end of a pre-notch: a segment in the x-y plane (through the thickness in 3D) that no bond "
+                   "may cross; bonds crossing it are left out of the families (no force, no damage). Unused when "
+                   "equal to notch_b."),
+    EJ_PARAM_ARRAY(pd_config, notch_b, 3, "m", 0, "Second end of the pre-notch segment (see notch_a)."),
     {0}};
 
 typedef struct pd_state {
@@ -103,17 +111,19 @@ typedef struct pd_state {
   ej_real c_contact; /* micromodulus of the contact force (c or 18K/pi d^4) */
   ej_real K, G;
   bool failure;
-  /* per bond, aligned with the reference CSR */
+  /* Per bond, aligned with the reference CSR. The only per-bond state that must survive a
+   * restart is the broken flag: it lives in the core's bond flags (bit 0, checkpointed). r0 and
+   * wc are recomputed from x0, vol0 and the flags when the plugin starts (also after a restart). */
   int ready; /* 0 until the lazy initialisation is done (read atomically) */
   ej_off nnz;
   ej_idx n_rows;
   const ej_off *off; /* the core's fixed families (never rebuilt) */
   const ej_idx *idx;
-  ej_real *r0;    /* reference length                                     */
-  ej_real *wc;    /* c V_j scale (PMB) or V_j scale (LPS); 0 for a non-bond */
-  uint8_t *alive; /* 1 intact bond, 0 broken or beyond the horizon         */
+  uint8_t *flags;  /* the core's bond flags: PD_BROKEN, PD_NOT_BOND         */
+  ej_real *r0;     /* reference length                                     */
+  ej_real *wc;     /* c V_j scale (PMB) or V_j scale (LPS); 0 for a broken bond or a non-bond */
   ej_real *vinter; /* [n] initial sum of V_j (damage denominator)          */
-  ej_real *vint;   /* [n] intact sum of V_j                                */
+  ej_real *vint;   /* [n] intact sum of V_j, always summed in row order    */
   int64_t n_bonds;
   /* contact: hashed cell grid + Verlet list over owned + ghost particles */
   int due; /* a rebuild is needed (set in pass 0, read atomically) */
@@ -121,6 +131,8 @@ typedef struct pd_state {
   ej_idx n_all_cap;
   ej_real *xcb;     /* [n] positions at the last contact build */
   int32_t *key;     /* [3 n_all] cell coordinates              */
+  int32_t *kss;     /* [3 n_all] cell coordinates, bucket order */
+  ej_real *xss;     /* [3 n_all] positions, bucket order        */
   uint32_t *bucket; /* [T + 1] counting-sort offsets            */
   ej_idx *order;    /* [n_all] particles by bucket              */
   uint32_t tmask;
@@ -131,6 +143,10 @@ typedef struct pd_state {
   int64_t n_contact_builds;
   ej_err init_rc;
 } pd_state;
+
+/* bits of the core's per-bond flags (ej_set_bond_flags) */
+#define PD_BROKEN 1u   /* broken (irreversible): the only per-bond state, checkpointed by the core */
+#define PD_NOT_BOND 2u /* in the family list but beyond the horizon: recomputed at start        */
 
 /* ------------------------------------------------------------------ declare / create */
 
@@ -161,6 +177,8 @@ static ej_err pd_declare(const void *config, int dim, ej_decl *d)
          .doc = "Dilatation theta = (3/m) sum w |xi| e V_j (LPS)."},
         {.name = "lps_im", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "m^-5",
          .doc = "1 / m, the inverse weighted volume m = sum w |xi|^2 V_j (LPS)."},
+        {.name = "lps_tm", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "m^-5",
+         .doc = "theta / m, read by the neighbours' bond loops (LPS)."},
     };
     for (size_t k = 0; k < sizeof lps / sizeof lps[0]; ++k) EJ_TRY(ej_decl_field(d, &lps[k]));
   }
@@ -170,8 +188,9 @@ static ej_err pd_declare(const void *config, int dim, ej_decl *d)
 
 static void pd_free_arrays(pd_state *s)
 {
-  ej_free(s->r0), ej_free(s->wc), ej_free(s->alive), ej_free(s->vinter), ej_free(s->vint);
+  ej_free(s->r0), ej_free(s->wc), ej_free(s->vinter), ej_free(s->vint);
   ej_free(s->xcb), ej_free(s->key), ej_free(s->bucket), ej_free(s->order);
+  ej_free(s->kss), ej_free(s->xss);
   ej_free(s->coff), ej_free(s->cidx), ej_free(s->cd);
 }
 
@@ -273,51 +292,71 @@ static inline ej_real pd_vscale(const pd_state *s, ej_real r0)
   return 1.0;
 }
 
+/* Whether the reference bond p-q crosses the notch segment a-b, in the x-y plane (proper crossing:
+ * strict orientation tests, so a bond ending exactly on the notch line is kept). */
+static bool pd_crosses(const ej_real *p, const ej_real *q, const ej_real *a, const ej_real *b)
+{
+  const ej_real d1 = (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0]);
+  const ej_real d2 = (b[0] - a[0]) * (q[1] - a[1]) - (b[1] - a[1]) * (q[0] - a[0]);
+  const ej_real d3 = (q[0] - p[0]) * (a[1] - p[1]) - (q[1] - p[1]) * (a[0] - p[0]);
+  const ej_real d4 = (q[0] - p[0]) * (b[1] - p[1]) - (q[1] - p[1]) * (b[0] - p[0]);
+  return ((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0));
+}
+
+/* Per-bond constants from x0 and vol0, and the intact state from the core's bond flags (bit 0 set
+ * by a break, restored from a checkpoint on restart). Idempotent: a restarted run computes the
+ * same r0, wc and intact sums as the uninterrupted one (vint is always the row-order sum). */
 static ej_err pd_init_bonds(pd_state *s, ej_set *set, const ej_nbr *nbr)
 {
   const ej_idx n = ej_set_count(set);
   EJ_ENSURE(nbr && nbr->n_rows == n, EJ_ERR_INTERNAL, "set '%s': pd family list has %d rows for %d particles",
             s->set_name, nbr ? (int)nbr->n_rows : -1, (int)n);
+  uint8_t *flags = ej_set_bond_flags(set);
+  EJ_ENSURE(flags, EJ_ERR_INTERNAL, "set '%s': pd needs the core's bond flags", s->set_name);
   const ej_off nnz = nbr->off[n];
   s->n_rows = n;
   s->nnz = nnz;
   s->off = nbr->off;
   s->idx = nbr->idx;
+  s->flags = flags;
   s->r0 = ej_malloc((size_t)(nnz ? nnz : 1) * sizeof *s->r0);
   s->wc = ej_malloc((size_t)(nnz ? nnz : 1) * sizeof *s->wc);
-  s->alive = ej_malloc((size_t)(nnz ? nnz : 1));
   s->vinter = ej_calloc((size_t)(n ? n : 1), sizeof *s->vinter);
   s->vint = ej_calloc((size_t)(n ? n : 1), sizeof *s->vint);
-  EJ_ENSURE(s->r0 && s->wc && s->alive && s->vinter && s->vint, EJ_ERR_MEM, "pd: out of memory for %lld bonds",
-            (long long)nnz);
+  EJ_ENSURE(s->r0 && s->wc && s->vinter && s->vint, EJ_ERR_MEM, "pd: out of memory for %lld bonds", (long long)nnz);
   const ej_real *x0 = ej_set_field(set, "x0"), *vol0 = ej_set_field(set, "vol0");
   ej_real *im = ej_set_field(set, "lps_im");
   EJ_ENSURE(x0 && vol0, EJ_ERR_INTERNAL, "set '%s': pd needs x0 and vol0", s->set_name);
   const ej_real d2 = s->delta * s->delta;
   const ej_real cw = s->cfg.model == PD_PMB ? s->c_bond : 1.0;
   int64_t nb = 0;
+  const ej_real *na_ = s->cfg.notch_a, *nb_ = s->cfg.notch_b;
+  const bool notch = na_[0] != nb_[0] || na_[1] != nb_[1];
   for (ej_idx i = 0; i < n; ++i) {
-    ej_real wvol = 0;
+    ej_real wvol = 0, vi = 0;
     for (ej_off k = nbr->off[i]; k < nbr->off[i + 1]; ++k) {
       const ej_idx j = nbr->idx[k];
       const ej_real dx = x0[3 * i] - x0[3 * j], dy = x0[3 * i + 1] - x0[3 * j + 1], dz = x0[3 * i + 2] - x0[3 * j + 2];
       const ej_real rsq = dx * dx + dy * dy + dz * dz;
       const ej_real r0 = sqrt(rsq);
       s->r0[k] = r0 > 0 ? r0 : 1.0;
-      if (rsq <= d2 && r0 > 0) {
+      if (rsq <= d2 && r0 > 0 && !(notch && pd_crosses(x0 + 3 * i, x0 + 3 * (size_t)j, na_, nb_))) {
         const ej_real sc = pd_vscale(s, r0);
-        s->wc[k] = cw * vol0[j] * sc;
-        s->alive[k] = 1;
+        const bool intact = !(flags[k] & PD_BROKEN);
+        flags[k] &= (uint8_t)~PD_NOT_BOND;
+        s->wc[k] = intact ? cw * vol0[j] * sc : 0.0;
         s->vinter[i] += vol0[j];
-        /* m = sum w |xi|^2 V_j scale with w = 1/|xi| (fix_peri_neigh.cpp, LPS) */
+        if (intact) vi += vol0[j];
+        /* m = sum w |xi|^2 V_j scale with w = 1/|xi| (fix_peri_neigh.cpp, LPS): the reference
+         * weighted volume, counting broken bonds too (LAMMPS never updates wvolume) */
         wvol += (1.0 / r0) * rsq * vol0[j] * sc;
         ++nb;
       } else {
         s->wc[k] = 0;
-        s->alive[k] = 0;
+        flags[k] |= PD_NOT_BOND;
       }
     }
-    s->vint[i] = s->vinter[i];
+    s->vint[i] = vi;
     if (im) im[i] = wvol != 0 ? 1.0 / wvol : 0.0;
   }
   s->n_bonds = nb;
@@ -339,7 +378,7 @@ static inline int32_t pd_cell(ej_real x, ej_real inv_h)
 }
 
 /* Serial: every owned i gets the particles (owned or ghost) within rc of it, in cell-scan order. */
-static ej_err pd_build_contacts(pd_state *s, ej_set *set)
+__attribute__((noinline)) static ej_err pd_build_contacts(pd_state *s, ej_set *set)
 {
   const ej_idx n = ej_set_count(set), na = ej_set_count_all(set);
   const ej_real *x = ej_set_field(set, "x"), *x0 = ej_set_field(set, "x0");
@@ -348,12 +387,16 @@ static ej_err pd_build_contacts(pd_state *s, ej_set *set)
     uint32_t T = 16;
     while (T < 2u * (uint32_t)(na > 0 ? na : 1)) T <<= 1;
     ej_free(s->key), ej_free(s->bucket), ej_free(s->order), ej_free(s->xcb), ej_free(s->coff);
+    ej_free(s->kss), ej_free(s->xss);
     s->key = ej_malloc((size_t)(na ? na : 1) * 3 * sizeof *s->key);
+    s->kss = ej_malloc((size_t)(na ? na : 1) * 3 * sizeof *s->kss);
+    s->xss = ej_malloc((size_t)(na ? na : 1) * 3 * sizeof *s->xss);
     s->bucket = ej_malloc(((size_t)T + 1) * sizeof *s->bucket);
     s->order = ej_malloc((size_t)(na ? na : 1) * sizeof *s->order);
     s->xcb = ej_malloc((size_t)(n ? n : 1) * 3 * sizeof *s->xcb);
     s->coff = ej_malloc(((size_t)n + 1) * sizeof *s->coff);
-    EJ_ENSURE(s->key && s->bucket && s->order && s->xcb && s->coff, EJ_ERR_MEM, "pd: out of memory (contact grid)");
+    EJ_ENSURE(s->key && s->kss && s->xss && s->bucket && s->order && s->xcb && s->coff, EJ_ERR_MEM,
+              "pd: out of memory (contact grid)");
     s->tmask = T - 1;
     s->n_all_cap = na;
     if (!s->cidx) {
@@ -375,14 +418,21 @@ static ej_err pd_build_contacts(pd_state *s, ej_set *set)
     s->bucket[pd_hash(kk[0], kk[1], kk[2], s->tmask) + 1]++;
   }
   for (uint32_t b = 0; b < T; ++b) s->bucket[b + 1] += s->bucket[b];
+  /* counting sort into bucket order, with contiguous copies of the cell keys and positions:
+   * the scan below then reads memory in order (the build was 25 % of a step loop before) */
   for (ej_idx p = 0; p < na; ++p) {
     const int32_t *kk = s->key + 3 * p;
-    s->order[s->bucket[pd_hash(kk[0], kk[1], kk[2], s->tmask)]++] = p;
+    const uint32_t q = s->bucket[pd_hash(kk[0], kk[1], kk[2], s->tmask)]++;
+    s->order[q] = p;
+    memcpy(s->kss + 3 * (size_t)q, kk, 3 * sizeof *kk);
+    memcpy(s->xss + 3 * (size_t)q, x + 3 * (size_t)p, 3 * sizeof *x);
   }
   for (uint32_t b = T; b > 0; --b) s->bucket[b] = s->bucket[b - 1];
   s->bucket[0] = 0;
   const ej_real rc2 = s->rc * s->rc, dmax = 1.35 * s->lc;
   const int ry = dim > 1 ? 1 : 0, rz = dim > 2 ? 1 : 0;
+  const int32_t *restrict kss = s->kss;
+  const ej_real *restrict xss = s->xss;
   ej_off nc = 0;
   s->coff[0] = 0;
   for (ej_idx i = 0; i < n; ++i) {
@@ -393,30 +443,44 @@ static ej_err pd_build_contacts(pd_state *s, ej_set *set)
         for (int c = -rz; c <= rz; ++c) {
           const int32_t cx = ki[0] + a, cy = ki[1] + b, cz = ki[2] + c;
           const uint32_t h = pd_hash(cx, cy, cz, s->tmask);
-          for (uint32_t q = s->bucket[h]; q < s->bucket[h + 1]; ++q) {
+          const uint32_t q0 = s->bucket[h], q1 = s->bucket[h + 1];
+          if (nc + (ej_off)(q1 - q0) > s->ccap) {
+            /* grows only when compaction packs more particles into rc than ever before */
+            ej_off cap = s->ccap + s->ccap / 2 + (ej_off)(q1 - q0) + 16;
+            ej_idx *ci = ej_realloc(s->cidx, (size_t)cap * sizeof *ci);
+            if (ci) s->cidx = ci;
+            ej_real *cd = ej_realloc(s->cd, (size_t)cap * sizeof *cd);
+            if (cd) s->cd = cd;
+            EJ_ENSURE(ci && cd, EJ_ERR_MEM, "pd: out of memory (contact list)");
+            s->ccap = cap;
+          }
+          ej_idx *restrict cidx = s->cidx;
+          /* branch-free append (the test fails for most candidates, unpredictably) */
+          for (uint32_t q = q0; q < q1; ++q) {
+            const int32_t *kj = kss + 3 * (size_t)q;
+            const ej_real dx = xss[3 * (size_t)q] - xi, dy = xss[3 * (size_t)q + 1] - yi, dz = xss[3 * (size_t)q + 2] - zi;
             const ej_idx j = s->order[q];
-            const int32_t *kj = s->key + 3 * j;
-            if (j == i || kj[0] != cx || kj[1] != cy || kj[2] != cz) continue;
-            const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
-            if (dx * dx + dy * dy + dz * dz >= rc2) continue;
-            if (nc == s->ccap) {
-              /* grows only when compaction packs more particles into rc than ever before */
-              ej_off cap = s->ccap + s->ccap / 2 + 16;
-              ej_idx *ci = ej_realloc(s->cidx, (size_t)cap * sizeof *ci);
-              if (ci) s->cidx = ci;
-              ej_real *cd = ej_realloc(s->cd, (size_t)cap * sizeof *cd);
-              if (cd) s->cd = cd;
-              EJ_ENSURE(ci && cd, EJ_ERR_MEM, "pd: out of memory (contact list)");
-              s->ccap = cap;
-            }
-            const ej_real ex = x0[3 * i] - x0[3 * j], ey = x0[3 * i + 1] - x0[3 * j + 1], ez = x0[3 * i + 2] - x0[3 * j + 2];
-            const ej_real d0 = 0.9 * sqrt(ex * ex + ey * ey + ez * ez);
-            s->cidx[nc] = j;
-            s->cd[nc] = d0 < dmax ? d0 : dmax; /* d_ij = MIN(0.9 |xi|, 1.35 lc) */
-            ++nc;
+            const int ok = (kj[0] == cx) & (kj[1] == cy) & (kj[2] == cz) & (dx * dx + dy * dy + dz * dz < rc2) & (j != i);
+            cidx[nc] = j;
+            nc += ok;
           }
         }
+    for (ej_off q = s->coff[i]; q < nc; ++q) {
+      const ej_idx j = s->cidx[q];
+      const ej_real ex = x0[3 * i] - x0[3 * j], ey = x0[3 * i + 1] - x0[3 * j + 1], ez = x0[3 * i + 2] - x0[3 * j + 2];
+      const ej_real d0 = 0.9 * sqrt(ex * ex + ey * ey + ez * ez);
+      s->cd[q] = d0 < dmax ? d0 : dmax; /* d_ij = MIN(0.9 |xi|, 1.35 lc) */
+    }
     s->coff[i + 1] = nc;
+    /* ascending j (insertion sort of a short row): the contact sum then does not depend on
+     * the cell-scan order, i.e. on when the list was built (restart, skin) */
+    for (ej_off q = s->coff[i] + 1; q < nc; ++q) {
+      const ej_idx jq = s->cidx[q];
+      const ej_real dq = s->cd[q];
+      ej_off p = q;
+      for (; p > s->coff[i] && s->cidx[p - 1] > jq; --p) s->cidx[p] = s->cidx[p - 1], s->cd[p] = s->cd[p - 1];
+      s->cidx[p] = jq, s->cd[p] = dq;
+    }
   }
   memcpy(s->xcb, x, (size_t)n * 3 * sizeof *x);
   s->n_contact_builds++;
@@ -450,7 +514,8 @@ static ej_err pd_ensure_ready(pd_state *s, ej_set *set, const ej_nbr *nbr)
 }
 
 /* Pass 0: contact displacement check; LPS dilatation theta_i = (3/m_i) sum w r0 dr V_j scale
- * (pair_peri_lps.cpp compute_dilatation; w r0 = 1 for w = 1/r0). */
+ * (pair_peri_lps.cpp compute_dilatation; w r0 = 1 for w = 1/r0) and tm_i = theta_i / m_i, which
+ * pass 1 reads for every neighbour (one gather instead of two and a product). */
 static ej_err pd_pass0(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
 {
   EJ_TRY(pd_ensure_ready(s, set, nbr));
@@ -474,12 +539,12 @@ static ej_err pd_pass0(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
     }
   }
   if (s->cfg.model != PD_LPS) return EJ_OK;
-  ej_real *restrict theta = ej_set_field(set, "theta");
+  ej_real *restrict theta = ej_set_field(set, "theta"), *restrict tm = ej_set_field(set, "lps_tm");
   const ej_real *restrict im = ej_set_field(set, "lps_im");
+  EJ_ENSURE(theta && tm && im, EJ_ERR_INTERNAL, "set '%s': pd lps fields missing", s->set_name);
   const ej_off *restrict off = nbr->off;
   const ej_idx *restrict idx = nbr->idx;
   const ej_real *restrict r0 = s->r0, *restrict wc = s->wc;
-  const uint8_t *restrict alive = s->alive;
   for (ej_idx i = r.begin; i < r.end; ++i) {
     const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2];
     ej_real th = 0;
@@ -490,9 +555,10 @@ static ej_err pd_pass0(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
       const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
       ej_real dr = sqrt(dx * dx + dy * dy + dz * dz) - r0[k];
       dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
-      th += alive[k] == 1 ? dr * wc[k] : 0.0;
+      th += dr * wc[k]; /* wc = 0 for broken bonds and non-bonds */
     }
     theta[i] = im[i] != 0 ? 3.0 * im[i] * th : 0.0;
+    tm[i] = theta[i] * im[i];
   }
   return EJ_OK;
 }
@@ -519,48 +585,38 @@ static ej_err pd_contact_ready(pd_state *s, ej_set *set)
 }
 
 typedef struct pd_args {
-  const ej_real *x, *m, *vol0, *s0, *theta, *im;
+  const ej_real *x, *m, *vol0, *s0, *theta, *im, *tm;
   ej_real *a, *s0n, *e, *wf, *vint;
   int32_t *nbk;
   const ej_off *off;
   const ej_idx *idx;
-  const ej_real *r0, *wc;
-  uint8_t *alive;
+  const ej_real *r0;
+  ej_real *wc;
+  uint8_t *flags;
 } pd_args;
 
-/* Bond loops are written without branches so that they vectorise (omp simd): broken bonds
- * contribute with weight 0, and a bond that breaks in this evaluation is marked 2 and settled
- * (alive = 0, its volume taken from the damage sum) in a scalar sweep of the rare rows with a
- * break. One division per bond: q = 1/(r0 r) gives both s = dr/r0 = dr r q and rk/r = wc dr q
- * (LAMMPS divides twice; the results agree to rounding). */
-#define PD_BOND_SETTLE()                                                                                \
-  do {                                                                                                  \
-    if (nbrk) {                                                                                         \
-      for (ej_off k = k0; k < k1; ++k)                                                                  \
-        if (alive[k] == 2) {                                                                            \
-          alive[k] = 0;                                                                                 \
-          *vlost += vol0[idx[k]];                                                                       \
-        }                                                                                               \
-      *nbroken += (int)nbrk;                                                                               \
-    }                                                                                                   \
-  } while (0)
+/* What a row's vector sweep returns: force density, sum of the bond energy terms (intact bonds,
+ * including those that break now), the extreme stretches over the intact bonds and whether some
+ * bond breaks in this evaluation. */
+typedef struct pd_row {
+  ej_real f[3], en, smin, smax, nbrk;
+} pd_row;
 
 /* Bond forces of PMB (pair_peri_pmb.cpp): f_i += c V_j scale s (x_j - x_i)/r; energy per bond
- * and side c s^2 r0 V_j scale / 4 (W_i = 1/2 sum_j w(xi) V_j with w = c s^2 |xi| / 2). */
-static inline ej_real pd_bonds_pmb(const pd_state *s, const pd_args *A, ej_idx i, ej_real f[3], ej_real *e_brk,
-                                   ej_real *s0_new, int *nbroken, ej_real *vlost)
+ * and side c s^2 r0 V_j scale / 4 (W_i = 1/2 sum_j w(xi) V_j with w = c s^2 |xi| / 2; the 1/4
+ * is applied to the row sum, exact for a power of two). Branch-free so that GCC vectorises it
+ * (-fopt-info-vec: 32-byte vectors): broken bonds and non-bonds carry wc = 0, the flags are not
+ * read here, and nothing is written; the rare rows where a bond breaks are settled afterwards
+ * (pd_settle). One division per bond: q = 1/(r0 r) gives both s = dr/r0 = dr r q and the force
+ * factor wc dr q (LAMMPS divides twice; equal to rounding). r = 0 means dr = -r0, s = -1. */
+static inline void pd_row_pmb(const pd_args *A, ej_idx i, bool fail, pd_row *o)
 {
-  const ej_real *restrict x = A->x;
-  const ej_real *restrict r0 = A->r0, *restrict wc = A->wc, *restrict s0 = A->s0, *restrict vol0 = A->vol0;
-  uint8_t *restrict alive = A->alive;
+  const ej_real *restrict x = A->x, *restrict r0 = A->r0, *restrict wc = A->wc, *restrict s0 = A->s0;
   const ej_idx *restrict idx = A->idx;
   const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2], s0i = s0[i];
-  const ej_real fail = s->failure ? 1.0 : 0.0;
-  const ej_real s00 = s->cfg.s00, alpha = s->cfg.alpha;
-  ej_real fx = 0, fy = 0, fz = 0, en = 0, eb_sum = 0, smax_val = -HUGE_VAL;
-  ej_real nbrk = 0, nal = 0;
+  ej_real fx = 0, fy = 0, fz = 0, en = 0, smin = HUGE_VAL, smax = -HUGE_VAL, nbrk = 0;
   const ej_off k0 = A->off[i], k1 = A->off[i + 1];
-#pragma omp simd reduction(+ : fx, fy, fz, en, eb_sum, nbrk, nal) reduction(max : smax_val)
+#pragma omp simd reduction(+ : fx, fy, fz, en, nbrk) reduction(min : smin) reduction(max : smax)
   for (ej_off k = k0; k < k1; ++k) {
     const ej_idx j = idx[k];
     const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
@@ -568,50 +624,42 @@ static inline ej_real pd_bonds_pmb(const pd_state *s, const pd_args *A, ej_idx i
     const ej_real rr0 = r0[k];
     ej_real dr = r - rr0;
     dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
-    const ej_real q = r > 0.0 ? 1.0 / (rr0 * r) : 0.0;
-    const ej_real st = r > 0.0 ? dr * r * q : dr / rr0;
-    const int al = alive[k] == 1;
-    const ej_real w = al ? wc[k] : 0.0;
+    const ej_real qq = 1.0 / (rr0 * r); /* unconditional: GCC does not if-convert a division */
+    const ej_real q = r > 0.0 ? qq : 0.0;
+    const ej_real st = r > 0.0 ? dr * r * q : -1.0;
+    const ej_real w = wc[k];
     const ej_real fb = w * dr * q;
     fx += dx * fb, fy += dy * fb, fz += dz * fb;
-    const ej_real eb = 0.25 * w * st * dr;
+    en += w * st * dr;
+    /* no && and no if: control flow stops the vectoriser */
+    const int al = w > 0.0;
     const ej_real s0j = s0[j];
-    const int brk = al && fail > 0.0 && st > (s0i < s0j ? s0i : s0j);
-    en += brk ? 0.0 : eb;
-    eb_sum += brk ? eb : 0.0;
-    nbrk += brk ? 1.0 : 0.0;
-    nal += al ? 1.0 : 0.0;
-    const ej_real cand = al ? s00 - alpha * st : -HUGE_VAL;
-    smax_val = cand > smax_val ? cand : smax_val;
-    alive[k] = (uint8_t)(brk ? 2 : al);
+    const ej_real lim = s0i < s0j ? s0i : s0j;
+    nbrk += (al & (st > lim)) ? 1.0 : 0.0;
+    const ej_real sa = al ? st : HUGE_VAL, sb = al ? st : -HUGE_VAL;
+    smin = sa < smin ? sa : smin;
+    smax = sb > smax ? sb : smax;
   }
-  PD_BOND_SETTLE();
-  *e_brk += eb_sum;
-  *s0_new = nal > 0 ? smax_val : DBL_MAX;
-  f[0] = fx, f[1] = fy, f[2] = fz;
-  return en;
+  o->f[0] = fx, o->f[1] = fy, o->f[2] = fz;
+  o->en = 0.25 * en;
+  o->smin = smin, o->smax = smax, o->nbrk = fail ? nbrk : 0.0;
 }
 
 /* Bond forces of LPS (pair_peri_lps.cpp): with w r0 = 1 for w = 1/r0,
  *   rk = (3K - 5G) V_j scale (theta_i/m_i + theta_j/m_j) + 15 G V_j scale (1/m_i + 1/m_j) dr / r0;
  * energy (Silling et al. 2007 sec. 15) W_i = K theta_i^2/2 + (15 G / 2 m_i) sum w (e^d)^2 V_j scale,
- * e^d = dr - theta_i r0 / 3. */
-static inline ej_real pd_bonds_lps(const pd_state *s, const pd_args *A, ej_idx i, ej_real f[3], ej_real *e_brk,
-                                   ej_real *s0_new, int *nbroken, ej_real *vlost)
+ * e^d = dr - theta_i r0 / 3 (the 1/2 applied to the row sum). */
+static inline void pd_row_lps(const pd_state *s, const pd_args *A, ej_idx i, bool fail, pd_row *o)
 {
-  const ej_real *restrict x = A->x, *restrict theta = A->theta, *restrict im = A->im;
-  const ej_real *restrict r0 = A->r0, *restrict wc = A->wc, *restrict s0 = A->s0, *restrict vol0 = A->vol0;
-  uint8_t *restrict alive = A->alive;
+  const ej_real *restrict x = A->x, *restrict tm = A->tm, *restrict im = A->im;
+  const ej_real *restrict r0 = A->r0, *restrict wc = A->wc, *restrict s0 = A->s0;
   const ej_idx *restrict idx = A->idx;
   const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2], s0i = s0[i];
   const ej_real A35 = 3.0 * s->K - 5.0 * s->G, G15 = 15.0 * s->G;
-  const ej_real ti = theta[i] * im[i], imi = im[i], th3 = theta[i] / 3.0;
-  const ej_real fail = s->failure ? 1.0 : 0.0;
-  const ej_real s00 = s->cfg.s00, alpha = s->cfg.alpha;
-  ej_real fx = 0, fy = 0, fz = 0, en = 0, eb_sum = 0, smax_val = -HUGE_VAL;
-  ej_real nbrk = 0, nal = 0;
+  const ej_real ti = tm[i], imi = im[i], th3 = A->theta[i] / 3.0, gi = G15 * imi;
+  ej_real fx = 0, fy = 0, fz = 0, en = 0, smin = HUGE_VAL, smax = -HUGE_VAL, nbrk = 0;
   const ej_off k0 = A->off[i], k1 = A->off[i + 1];
-#pragma omp simd reduction(+ : fx, fy, fz, en, eb_sum, nbrk, nal) reduction(max : smax_val)
+#pragma omp simd reduction(+ : fx, fy, fz, en, nbrk) reduction(min : smin) reduction(max : smax)
   for (ej_off k = k0; k < k1; ++k) {
     const ej_idx j = idx[k];
     const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
@@ -620,40 +668,103 @@ static inline ej_real pd_bonds_lps(const pd_state *s, const pd_args *A, ej_idx i
     ej_real dr = r - rr0;
     dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
     const ej_real inv_r0 = 1.0 / rr0;
-    const int al = alive[k] == 1;
-    const ej_real w = al ? wc[k] : 0.0;
-    const ej_real rk = A35 * w * (ti + theta[j] * im[j]) + G15 * w * (imi + im[j]) * dr * inv_r0;
-    const ej_real fb = r > 0.0 ? rk / r : 0.0;
+    const ej_real w = wc[k];
+    const ej_real rk = A35 * w * (ti + tm[j]) + G15 * w * (imi + im[j]) * dr * inv_r0;
+    const ej_real fq = rk / r; /* unconditional: GCC does not if-convert a division */
+    const ej_real fb = r > 0.0 ? fq : 0.0;
     fx += dx * fb, fy += dy * fb, fz += dz * fb;
     const ej_real ed = dr - th3 * rr0;
-    const ej_real eb = 0.5 * G15 * imi * ed * ed * w * inv_r0;
+    en += gi * ed * ed * w * inv_r0;
     const ej_real st = dr * inv_r0;
+    /* no && and no if: control flow stops the vectoriser */
+    const int al = w > 0.0;
     const ej_real s0j = s0[j];
-    const int brk = al && fail > 0.0 && st > (s0i < s0j ? s0i : s0j);
-    en += brk ? 0.0 : eb;
-    eb_sum += brk ? eb : 0.0;
-    nbrk += brk ? 1.0 : 0.0;
-    nal += al ? 1.0 : 0.0;
-    const ej_real cand = al ? s00 - alpha * st : -HUGE_VAL;
-    smax_val = cand > smax_val ? cand : smax_val;
-    alive[k] = (uint8_t)(brk ? 2 : al);
+    const ej_real lim = s0i < s0j ? s0i : s0j;
+    nbrk += (al & (st > lim)) ? 1.0 : 0.0;
+    const ej_real sa = al ? st : HUGE_VAL, sb = al ? st : -HUGE_VAL;
+    smin = sa < smin ? sa : smin;
+    smax = sb > smax ? sb : smax;
   }
-  PD_BOND_SETTLE();
-  *e_brk += eb_sum;
-  *s0_new = nal > 0 ? smax_val : DBL_MAX;
-  f[0] = fx, f[1] = fy, f[2] = fz;
-  return en + 0.5 * s->K * theta[i] * theta[i];
+  o->f[0] = fx, o->f[1] = fy, o->f[2] = fz;
+  o->en = 0.5 * en + 0.5 * s->K * A->theta[i] * A->theta[i];
+  o->smin = smin, o->smax = smax, o->nbrk = fail ? nbrk : 0.0;
+}
+
+/* A row where some bond breaks (rare): mark the breaking bonds broken in the core's flags (bit 0,
+ * checkpointed) and zero their wc, move their energy from the elastic to the released energy,
+ * and recompute the intact volume sum in row order. The stretch is recomputed with exactly the
+ * operations of the vector sweep (no FMA contraction in ISO C mode), so the decisions agree. */
+static void pd_settle(const pd_state *s, const pd_args *A, ej_idx i, pd_row *o, ej_real *e_brk, int *nbroken)
+{
+  const ej_real *x = A->x, *r0 = A->r0, *s0 = A->s0, *vol0 = A->vol0;
+  const bool lps = s->cfg.model == PD_LPS;
+  const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2], s0i = s0[i];
+  const ej_real gi = lps ? 15.0 * s->G * A->im[i] : 0.0, th3 = lps ? A->theta[i] / 3.0 : 0.0;
+  ej_real en = 0, eb = 0, vi = 0;
+  int nb = 0;
+  for (ej_off k = A->off[i]; k < A->off[i + 1]; ++k) {
+    const ej_real w = A->wc[k];
+    if (!(w > 0.0)) continue;
+    const ej_idx j = A->idx[k];
+    const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
+    const ej_real r = sqrt(dx * dx + dy * dy + dz * dz);
+    const ej_real rr0 = r0[k];
+    ej_real dr = r - rr0;
+    dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
+    ej_real st, term;
+    if (lps) {
+      const ej_real inv_r0 = 1.0 / rr0, ed = dr - th3 * rr0;
+      st = dr * inv_r0;
+      term = gi * ed * ed * w * inv_r0;
+    } else {
+      const ej_real q = r > 0.0 ? 1.0 / (rr0 * r) : 0.0;
+      st = r > 0.0 ? dr * r * q : -1.0;
+      term = w * st * dr;
+    }
+    const ej_real s0j = s0[j];
+    if (st > (s0i < s0j ? s0i : s0j)) {
+      A->flags[k] |= PD_BROKEN;
+      A->wc[k] = 0.0;
+      eb += term;
+      ++nb;
+    } else {
+      en += term;
+      vi += vol0[j];
+    }
+  }
+  const ej_real h = lps ? 0.5 : 0.25;
+  o->en = h * en + (lps ? 0.5 * s->K * A->theta[i] * A->theta[i] : 0.0);
+  *e_brk = h * eb;
+  *nbroken = nb;
+  A->vint[i] = vi;
 }
 
 /* Contact (pair_peri_*.cpp "short-range forces"): force density on i 15 c_s V_j (d - r)/delta
- * away from j; energy per side 15 c_s V_j (d - r)^2 / (4 delta). */
+ * away from j; energy per side 15 c_s V_j (d - r)^2 / (4 delta). Rows are sorted by j, so the
+ * sum does not depend on when the list was built (restart, skin). */
 static inline ej_real pd_contacts(const pd_state *s, const pd_args *A, ej_idx i, ej_real f[3])
 {
   const ej_real *restrict x = A->x, *restrict vol0 = A->vol0;
   const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2];
   const ej_real k15 = 15.0 * s->c_contact / s->delta;
+  const ej_idx *restrict cidx = s->cidx;
+  const ej_real *restrict cd = s->cd;
+  const ej_off q0 = s->coff[i], q1 = s->coff[i + 1];
+  /* vector sweep for the (usual) row without a pair in contact; the force sum below runs over the
+   * pairs in contact only, in ascending j, so it is the same whatever else the list holds */
+  int hits = 0;
+#pragma omp simd reduction(+ : hits)
+  for (ej_off q = q0; q < q1; ++q) {
+    const ej_idx j = cidx[q];
+    const ej_real dx = xi - x[3 * j], dy = yi - x[3 * j + 1], dz = zi - x[3 * j + 2];
+    hits += dx * dx + dy * dy + dz * dz < cd[q] * cd[q];
+  }
   ej_real fx = 0, fy = 0, fz = 0, en = 0;
-  for (ej_off q = s->coff[i]; q < s->coff[i + 1]; ++q) {
+  if (!hits) {
+    f[0] = f[1] = f[2] = 0.0;
+    return 0.0;
+  }
+  for (ej_off q = q0; q < q1; ++q) {
     const ej_idx j = s->cidx[q];
     const ej_real dx = xi - x[3 * j], dy = yi - x[3 * j + 1], dz = zi - x[3 * j + 2];
     const ej_real rsq = dx * dx + dy * dy + dz * dz, d = s->cd[q];
@@ -673,29 +784,41 @@ static ej_err pd_pass1(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
   if (s->cfg.contact) EJ_TRY(pd_contact_ready(s, set));
   pd_args A = {.x = ej_set_field(set, "x"), .m = ej_set_field(set, "m"), .vol0 = ej_set_field(set, "vol0"),
                .s0 = ej_set_field(set, "s0"), .theta = ej_set_field(set, "theta"), .im = ej_set_field(set, "lps_im"),
-               .a = ej_set_field(set, "a"), .s0n = ej_set_field(set, "s0_new"), .e = ej_set_field(set, "e_pd"),
-               .wf = ej_set_field(set, "w_frac"), .vint = s->vint, .nbk = ej_set_field_int(set, "n_broken"),
-               .off = nbr->off, .idx = nbr->idx, .r0 = s->r0, .wc = s->wc, .alive = s->alive};
+               .tm = ej_set_field(set, "lps_tm"), .a = ej_set_field(set, "a"), .s0n = ej_set_field(set, "s0_new"),
+               .e = ej_set_field(set, "e_pd"), .wf = ej_set_field(set, "w_frac"), .vint = s->vint,
+               .nbk = ej_set_field_int(set, "n_broken"), .off = nbr->off, .idx = nbr->idx, .r0 = s->r0, .wc = s->wc,
+               .flags = s->flags};
   EJ_ENSURE(A.x && A.m && A.vol0 && A.s0 && A.a && A.s0n && A.e && A.wf && A.nbk, EJ_ERR_INTERNAL,
             "set '%s': pd fields missing", s->set_name);
-  const bool lps = s->cfg.model == PD_LPS, contact = s->cfg.contact;
+  const bool lps = s->cfg.model == PD_LPS, contact = s->cfg.contact, fail = s->failure;
+  const ej_real s00 = s->cfg.s00, alpha = s->cfg.alpha;
   for (ej_idx i = r.begin; i < r.end; ++i) {
-    ej_real f[3], fc[3] = {0, 0, 0}, e_brk = 0, s0n, vlost = 0;
+    pd_row o;
+    ej_real fc[3] = {0, 0, 0}, e_brk = 0;
     int nbroken = 0;
-    ej_real en = lps ? pd_bonds_lps(s, &A, i, f, &e_brk, &s0n, &nbroken, &vlost)
-                     : pd_bonds_pmb(s, &A, i, f, &e_brk, &s0n, &nbroken, &vlost);
+    /* specialised calls: the vector loops carry no test of fail */
+    if (lps) {
+      if (fail) pd_row_lps(s, &A, i, true, &o);
+      else pd_row_lps(s, &A, i, false, &o);
+    } else {
+      if (fail) pd_row_pmb(&A, i, true, &o);
+      else pd_row_pmb(&A, i, false, &o);
+    }
+    if (o.nbrk > 0.0) pd_settle(s, &A, i, &o, &e_brk, &nbroken);
+    ej_real en = o.en;
     if (contact) en += pd_contacts(s, &A, i, fc);
     /* a = F/m with F = V_i f: the force density over the density */
     const ej_real inv_rho = A.vol0[i] / A.m[i];
-    A.a[3 * i] += (f[0] + fc[0]) * inv_rho;
-    A.a[3 * i + 1] += (f[1] + fc[1]) * inv_rho;
-    A.a[3 * i + 2] += (f[2] + fc[2]) * inv_rho;
-    A.s0n[i] = s0n;
+    A.a[3 * i] += (o.f[0] + fc[0]) * inv_rho;
+    A.a[3 * i + 1] += (o.f[1] + fc[1]) * inv_rho;
+    A.a[3 * i + 2] += (o.f[2] + fc[2]) * inv_rho;
+    /* s0_i = max_j (s00 - alpha s_ij) over the bonds intact before this step's breaks, i.e.
+     * s00 - alpha s_min for alpha >= 0 (rounding is monotone, so the same double) */
+    A.s0n[i] = !(o.smin <= o.smax) ? DBL_MAX : alpha >= 0.0 ? s00 - alpha * o.smin : s00 - alpha * o.smax;
     A.e[i] = en * inv_rho;
     if (nbroken) {
       A.wf[i] += e_brk * inv_rho;
       A.nbk[i] += nbroken;
-      A.vint[i] -= vlost;
     }
   }
   return EJ_OK;
@@ -744,7 +867,7 @@ static ej_err pd_stable_dt(void *state, const ej_set *set, ej_range r, ej_real *
   for (ej_idx i = r.begin; i < r.end; ++i) {
     ej_real sum = 0;
     for (ej_off k = s->off[i]; k < s->off[i + 1]; ++k)
-      if (s->alive[k]) sum += cfac * s->wc[k] / s->r0[k];
+      sum += cfac * s->wc[k] / s->r0[k]; /* wc = 0: broken or not a bond */
     if (sum > 0) best = fmin(best, sqrt(2.0 * m[i] / vol0[i] / sum));
   }
   *dt = best;
@@ -799,7 +922,7 @@ static const ej_method_ops pd_ops = {
            "al. 2007). Reproduces LAMMPS's PERI package: partial-volume scaling near the horizon, critical "
            "stretch s0 = s00 - alpha s_min from the previous step, irreversible bond breaking after the force "
            "is applied, short-range contact repulsion between any close pair, damage from intact bond volume. "
-           "Per-bond state lives in the plugin and is not checkpointed.",
+           "Broken bonds are kept in the core's bond flags, so they survive a restart.",
     .params = pd_params,
     .config_size = sizeof(pd_config),
     .check_config = NULL,

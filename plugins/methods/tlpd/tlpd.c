@@ -194,6 +194,8 @@ static ej_err tlpd_declare(const void *config, int dim, ej_decl *d)
        .doc = "Nonlocal deformation gradient N K^-1."},
       {.name = "PK", .kind = EJ_TENSOR9, .flags = EJ_FIELD_SCRATCH, .unit = "Pa/m^2",
        .doc = "First Piola-Kirchhoff stress times K^-1 (force state per bond vector)."},
+      {.name = "K_inv", .kind = EJ_TENSOR9, .flags = EJ_FIELD_SCRATCH, .unit = "1/m^5",
+       .doc = "Inverse reference shape tensor over intact bonds (published for pd_sph form paper)."},
       {.name = "G_pk", .kind = EJ_TENSOR9, .flags = EJ_FIELD_SCRATCH, .unit = "Pa/m^2",
        .doc = "P K^-1 - C F: the bond-force matrix of the sum form with hourglass control folded in."},
       {.name = "x_prev", .kind = EJ_VEC3, .flags = EJ_FIELD_POSITION, .unit = "m",
@@ -490,9 +492,10 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
   int32_t *restrict status = ej_set_field_int(set, "pd_status"), *restrict failed = ej_set_field_int(set, "failed");
   const uint8_t *restrict flags = ej_set_bond_flags(set);
   ej_real *restrict w_dot = ej_set_field(set, "w_hg_dot"), *restrict G = ej_set_field(set, "G_pk");
+  ej_real *restrict Kinv_f = ej_set_field(set, "K_inv");
   const ej_real *restrict coef = ej_set_field(set, "pd_coef");
   EJ_ENSURE(x && v && xp && x0 && m && vol0 && F && PK && stress && rho && e && e_dot && c && w_pl && status && failed &&
-                w_dot && G && coef,
+                w_dot && G && coef && Kinv_f,
             EJ_ERR_INTERNAL, "set '%s': tlpd fields missing", s->name);
   const ej_off *restrict off = nbr->off;
   const ej_idx *restrict idx = nbr->idx;
@@ -637,6 +640,7 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
     }
     e_dot[i] += pw * vol0[i] / m[i];
     ej_m3_mul(PKi, Pi, s->Kinv + 9 * i);
+    memcpy(Kinv_f + 9 * i, s->Kinv + 9 * i, 9 * sizeof *Kinv_f);
     if (P) memcpy(P + 9 * i, Pi, sizeof Pi);
     const ej_real Ci = s->cfg.hourglass == TLPD_HG_ZHU_ZHAO ? coef[i] : 0;
     for (int k = 0; k < 9; ++k) G[9 * i + k] = PKi[k] - Ci * Fi[k];
