@@ -22,9 +22,13 @@ Verlet-list entries (r < max(2h_i, 2h_j) + skin), which the loop visits.
 Targets (issue): >= 1e6 particle-steps/s per core, 1 -> 2 thread speed-up >= 1.8, <= 1 KiB per
 particle. They are reported PASS/FAIL but never change the exit status (a benchmark, not a test).
 --profile additionally runs `perf record` on a 1-thread run and prints the top symbols.
+--compare [--baseline DIR] measures, in one run with the configurations alternated, the CPU time
+per step of this build's kernel-gradient SPH against a baseline build and of gradient:
+shape_tensor against the kernel gradient (ratios; robust on a shared machine).
 """
 import argparse
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -46,8 +50,9 @@ JITTER = 0.1
 SKIN = 0.1               # core default (neighbours.skin)
 
 
-def scene(n_side, steps, out, h_factor=H_FACTOR, jitter=JITTER):
+def scene(n_side, steps, out, h_factor=H_FACTOR, jitter=JITTER, gradient="kernel"):
     dx = 1.0 / n_side
+    grad_line = "" if gradient == "kernel" else f"\n    gradient: {gradient}"
     return f"""# bench/sph_throughput.py: periodic box, {n_side}^3 particles, {steps} steps
 ejecta: 1
 dimension: 3
@@ -58,7 +63,7 @@ materials:
 sets:
   gas:
     method: sph
-    material: gas
+    material: gas{grad_line}
     h_factor: {h_factor:g}
     shape: {{box: {{min: [0, 0, 0], max: [1, 1, 1]}}}}
     spacing: {dx:.17g}
@@ -242,6 +247,51 @@ def report(res, log=print):
         log("  perf profile of a 1-thread run (self time):\n" + res["profile"])
 
 
+def cpu_seconds(exe, scene_path, out):
+    """User + system CPU seconds of one 1-thread run (getrusage of the children: much less
+    sensitive than wall time to other jobs on a shared machine)."""
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run([exe, "run", scene_path, "-o", out, "--threads", "1"], check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   env=dict(os.environ, OMP_WAIT_POLICY="passive"))
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+
+
+def compare(build, baseline=None, n_side=46, steps=40, repeats=2, outdir=None, log=print):
+    """Ratios measured in one run, alternating the configurations: this build's kernel-gradient
+    SPH against a baseline build (speed-up), and its gradient: shape_tensor against its kernel
+    gradient (cost). Per configuration, the step cost is (CPU(N steps) - CPU(1 step)) / (N - 1),
+    the minimum over the repeats."""
+    outdir = outdir or os.path.join(ROOT, "out", "bench", "throughput")
+    os.makedirs(outdir, exist_ok=True)
+    configs = [("kernel", common.ejecta_binary(build), "kernel"),
+               ("shape_tensor", common.ejecta_binary(build), "shape_tensor")]
+    if baseline:
+        configs.insert(0, ("baseline kernel", common.ejecta_binary(baseline), "kernel"))
+    cost = {c[0]: [] for c in configs}
+    for _ in range(repeats):
+        for label, exe, grad in configs:
+            tag = label.replace(" ", "_")
+            one = write_scene(outdir, f"cmp_{tag}_1", scene(n_side, 1, os.path.join(outdir, "cmp_1.h5"), gradient=grad))
+            many = write_scene(outdir, f"cmp_{tag}_N", scene(n_side, steps, os.path.join(outdir, "cmp_N.h5"),
+                                                            gradient=grad))
+            c1 = cpu_seconds(exe, one, os.path.join(outdir, "cmp_1.h5"))
+            cN = cpu_seconds(exe, many, os.path.join(outdir, "cmp_N.h5"))
+            cost[label].append((cN - c1) / (steps - 1))
+            log(f"  {label:<16s} CPU 1 step {c1:6.2f} s, {steps} steps {cN:6.2f} s: "
+                f"{n_side ** 3 / cost[label][-1]:.3g} particle-steps/s")
+    best = {k: min(v) for k, v in cost.items()}
+    n = n_side ** 3
+    if baseline:
+        f = best["baseline kernel"] / best["kernel"]
+        log(f"  speed-up of the kernel-gradient SPH over the baseline build: {f:.3f} "
+            f"(baseline {n / best['baseline kernel']:.3g}, this build {n / best['kernel']:.3g} particle-steps/s CPU)")
+    r = best["shape_tensor"] / best["kernel"]
+    log(f"  cost of gradient: shape_tensor / kernel per step: {r:.2f} (target <= 1.5: {verdict(r <= 1.5)})")
+    return best
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default="build")
@@ -249,7 +299,13 @@ def main():
     ap.add_argument("--steps", type=int, default=40)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--profile", action="store_true", help="also perf-record a 1-thread run")
+    ap.add_argument("--compare", action="store_true",
+                    help="instead: CPU-time ratios, shape_tensor vs kernel (and --baseline vs this build)")
+    ap.add_argument("--baseline", default=None, help="build directory of the baseline for --compare")
     args = ap.parse_args()
+    if args.compare:
+        compare(args.build, args.baseline, args.n_side, args.steps, min(args.repeats, 2))
+        return 0
     measure(args.build, args.n_side, args.steps, args.repeats, profile=args.profile)
     return 0
 

@@ -44,8 +44,10 @@ H_FACTOR = {1: 2.0, 2: 1.5, 3: 1.3}
 SMOOTH_W = 1.5
 
 
-def sod_scene(dim, dx, t_end=T_END, width=0.04, out="out/sod.h5", every=0.05, header=""):
-    """Scene text of the Sod tube: dim 1, or 3 with a periodic square cross-section [0, width]^2."""
+def sod_scene(dim, dx, t_end=T_END, width=0.04, out="out/sod.h5", every=0.05, header="", gradient="kernel"):
+    """Scene text of the Sod tube: dim 1, or 3 with a periodic square cross-section [0, width]^2.
+    gradient "kernel": the kernel gradient (with the correction in 3D); "shape_tensor": the
+    consistent SPH of digest 000 Eqs 29-37 (sph gradient: shape_tensor)."""
     w = SMOOTH_W * H_FACTOR[dim] * dx
     n = int(round(1.0 / dx))
     lo3 = ", 0, 0" if dim == 3 else ""
@@ -72,7 +74,9 @@ def sod_scene(dim, dx, t_end=T_END, width=0.04, out="out/sod.h5", every=0.05, he
         "sets:",
         "  tube:",
         "    method: sph",
-    ] + (["    # one-sided compression of a 3D lattice: the kernel gradient correction keeps the",
+    ] + (["    # consistent SPH (digest 000 Eqs 29-37): current shape tensor gradient",
+          "    gradient: shape_tensor"] if gradient == "shape_tensor" else
+         ["    # one-sided compression of a 3D lattice: the kernel gradient correction keeps the",
           "    # pressure gradient and the density rate exact (without it the star state is 7 % off)",
           "    correction: true"] if dim > 1 else []) + [
         "    material: gas",
@@ -115,6 +119,12 @@ EXAMPLE_3D = """# Sod shock tube in three dimensions: the 1D problem solved by t
 # periodic ghost images in y and z, symmetry planes closing the tube in x). Projected on x, the
 # particles follow the exact 1D solution. Spacing 10 mm, cross-section 40 x 40 mm periodic:
 # 100 x 4 x 4 = 1600 particles.
+""" + EXAMPLE_COMMON
+EXAMPLE_3D_SHAPE = """# Sod shock tube in three dimensions with the consistent SPH of Fan & Li (digest 000 Eqs 29-37):
+# gradients from the current shape tensor M_i = sum_j V_j w_ij x_ij (x) x_ij (sph gradient:
+# shape_tensor, default shape_form symmetric: momentum and energy conserved). Same tube as
+# sod_3d.yaml (100 x 4 x 4 = 1600 particles); the run prints the shape-tensor fallbacks and
+# writes their per-step count to /series/tube/gradient_fallbacks.
 """ + EXAMPLE_COMMON
 
 
@@ -178,47 +188,49 @@ def plot_convergence(res, path):
     plt.close(fig)
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--build", default="build")
-    ap.add_argument("--full", action="store_true", help="one more resolution in 1D and 3D")
-    ap.add_argument("--out", default=os.path.join(common.ROOT, "out", "validation", "sod"))
-    ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--reuse", action="store_true", help="read existing outputs instead of running")
-    ap.add_argument("--no-3d", action="store_true")
-    ap.add_argument("--write-examples", action="store_true", help="regenerate the two example scenes and exit")
-    args = ap.parse_args()
-    if args.write_examples:
-        for name, dim, dx, head in (("sod_1d", 1, 0.0025, EXAMPLE_1D), ("sod_3d", 3, 0.01, EXAMPLE_3D)):
-            with open(os.path.join(common.ROOT, "examples", name + ".yaml"), "w") as f:
-                f.write(sod_scene(dim, dx, out=f"out/{name}.h5", header=head))
-        return 0
-    exe = common.ejecta_binary(args.build)
+def series_drift(path):
+    """Momentum and energy drift of a run: (P_x(end) - P_x exact) / P_x exact, where P_x exact =
+    (p_L - p_R) t_end times the cross-section (the walls at x = +-0.5 are not reached by t_end),
+    and max |balance| / initial total from /series/energy."""
+    es = common.read_series(path)
+    d = common.read_frame(path)
+    area = 1.0 if d["x"].shape[1] == 1 or np.ptp(d["x"][:, 1]) == 0 else None
+    if area is None:
+        area = float(np.sum(d["m"]) / (0.5 * 1.0 + 0.5 * 0.125))  # total mass / mean density per length
+    px_exact = (1.0 - 0.1) * float(es["t"][-1]) * area
+    total0 = es["kinetic"][0] + es["internal"][0]
+    return ((es["momentum_x"][-1] - px_exact) / px_exact, float(np.max(np.abs(es["balance"])) / total0))
 
-    spacings_1d = [0.005, 0.0025, 0.00125] + ([0.000625] if args.full else [])
-    spacings_3d = [] if args.no_3d else [0.02, 0.01] + ([0.005] if args.full else [])
-    print("Sod shock tube (Sod 1978; exact Riemann solver, Toro ch. 4), t = 0.2 s")
+
+def run_gradient(gradient, exe, args, spacings_1d, spacings_3d):
+    tag = "" if gradient == "kernel" else "_shape"
+    print(f"\n== gradient: {gradient}" + (" (3D: with the kernel gradient correction)" if gradient == "kernel" else
+                                          " (consistent SPH, digest 000 Eqs 29-37; sph shape_form: symmetric)"))
     res = {"1d": [], "3d": []}
     last = {}
+    drift = []
     for dx in spacings_1d:
-        name = f"sod_1d_{dx:g}"
-        path, wall = common.run(exe, sod_scene(1, dx),
+        name = f"sod_1d{tag}_{dx:g}"
+        path, wall = common.run(exe, sod_scene(1, dx, gradient=gradient),
                                 name, args.out, args.threads, args.reuse)
         d = common.read_frame(path)
         assert abs(d["time"] - T_END) < 1e-9, f"{path}: last frame at t = {d['time']}"
         res["1d"].append((dx, l1_density(d), len(d["rho"]), wall))
+        drift.append(series_drift(path))
         last["1d"] = d
     for dx in spacings_3d:
-        name = f"sod_3d_{dx:g}"
-        path, wall = common.run(exe, sod_scene(3, dx, width=0.04),
+        name = f"sod_3d{tag}_{dx:g}"
+        path, wall = common.run(exe, sod_scene(3, dx, width=0.04, gradient=gradient),
                                 name, args.out, args.threads, args.reuse)
         d = common.read_frame(path)
         assert abs(d["time"] - T_END) < 1e-9, f"{path}: last frame at t = {d['time']}"
         res["3d"].append((dx, l1_density(d), len(d["rho"]), wall))
+        drift.append(series_drift(path))
         last["3d"] = d
 
     ok = True
-    print(f"\n  {'case':<4} {'spacing':>9} {'particles':>9} {'L1(rho)':>10} {'order':>6} {'run [s]':>8}")
+    print(f"\n  gradient: {gradient}")
+    print(f"  {'case':<4} {'spacing':>9} {'particles':>9} {'L1(rho)':>10} {'order':>6} {'run [s]':>8}")
     for key in ("1d", "3d"):
         for k, (dx, err, n, wall) in enumerate(res[key]):
             o = "" if k == 0 else f"{np.log(res[key][k - 1][1] / err) / np.log(res[key][k - 1][0] / dx):6.2f}"
@@ -246,12 +258,49 @@ def main():
         print(f"  3D observed order (least squares): {slope3:.2f} (tolerance >= {TOL_ORDER})  {'PASS' if c3 else 'FAIL'}")
         ok &= c3
 
-    plot_profiles(last["1d"], f"Sod 1D, left spacing {h1[-1]:g} m", os.path.join(HERE, "sod_1d.png"))
+    worst_p = max(abs(q[0]) for q in drift)
+    worst_e = max(abs(q[1]) for q in drift)
+    print(f"  conservation over the runs: max |P_x(end) - P_x exact| / P_x exact = {worst_p:.2e}, "
+          f"max |energy balance| / total0 = {worst_e:.2e}")
+    gl = "" if gradient == "kernel" else ", gradient: shape_tensor"
+    plot_profiles(last["1d"], f"Sod 1D{gl}, left spacing {h1[-1]:g} m", os.path.join(HERE, f"sod_1d{tag}.png"))
     if res["3d"]:
-        plot_profiles(last["3d"], f"Sod 3D periodic tube projected on x, left spacing {res['3d'][-1][0]:g} m",
-                      os.path.join(HERE, "sod_3d.png"))
-    plot_convergence(res, os.path.join(HERE, "sod_convergence.png"))
-    print(f"  figures: validation/sod/sod_1d.png, sod_3d.png, sod_convergence.png")
+        plot_profiles(last["3d"], f"Sod 3D periodic tube projected on x{gl}, left spacing {res['3d'][-1][0]:g} m",
+                      os.path.join(HERE, f"sod_3d{tag}.png"))
+    plot_convergence(res, os.path.join(HERE, f"sod_convergence{tag}.png"))
+    print(f"  figures: validation/sod/sod_1d{tag}.png, sod_3d{tag}.png, sod_convergence{tag}.png")
+    print(f"  gradient {gradient}: {'PASS' if ok else 'FAIL'}")
+    return ok
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--build", default="build")
+    ap.add_argument("--full", action="store_true", help="one more resolution in 1D and 3D")
+    ap.add_argument("--out", default=os.path.join(common.ROOT, "out", "validation", "sod"))
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--reuse", action="store_true", help="read existing outputs instead of running")
+    ap.add_argument("--no-3d", action="store_true")
+    ap.add_argument("--gradient", choices=["kernel", "shape_tensor", "both"], default="both",
+                    help="sph gradient operator(s) to validate (default both, one table each)")
+    ap.add_argument("--write-examples", action="store_true", help="regenerate the two example scenes and exit")
+    args = ap.parse_args()
+    if args.write_examples:
+        for name, dim, dx, head, grad in (("sod_1d", 1, 0.0025, EXAMPLE_1D, "kernel"),
+                                          ("sod_3d", 3, 0.01, EXAMPLE_3D, "kernel"),
+                                          ("sod_3d_shape", 3, 0.01, EXAMPLE_3D_SHAPE, "shape_tensor")):
+            with open(os.path.join(common.ROOT, "examples", name + ".yaml"), "w") as f:
+                f.write(sod_scene(dim, dx, out=f"out/{name}.h5", header=head, gradient=grad))
+        return 0
+    exe = common.ejecta_binary(args.build)
+
+    spacings_1d = [0.005, 0.0025, 0.00125] + ([0.000625] if args.full else [])
+    spacings_3d = [] if args.no_3d else [0.02, 0.01] + ([0.005] if args.full else [])
+    print("Sod shock tube (Sod 1978; exact Riemann solver, Toro ch. 4), t = 0.2 s")
+    grads = ["kernel", "shape_tensor"] if args.gradient == "both" else [args.gradient]
+    ok = True
+    for g in grads:
+        ok &= run_gradient(g, exe, args, spacings_1d, spacings_3d)
     print(f"sod: {'PASS' if ok else 'FAIL'}")
     return 0 if ok else 1
 

@@ -83,7 +83,9 @@ static inline ej_real ej_m3_inverse(ej_real B[9], const ej_real A[9])
   const ej_real c00 = A[4] * A[8] - A[5] * A[7], c01 = A[5] * A[6] - A[3] * A[8], c02 = A[3] * A[7] - A[4] * A[6];
   const ej_real det = A[0] * c00 + A[1] * c01 + A[2] * c02;
   const ej_real na = ej_m3_norm(A);
-  if (!(fabs(det) > 1e-300) || !(na > 0)) return 0;
+  /* relative test: a rank-deficient A computes a det of round-off size, not exactly 0 */
+  const ej_real scale = na / 1.7320508075688772;
+  if (!(na > 0) || !(fabs(det) > 1e-12 * scale * scale * scale)) return 0;
   const ej_real id = 1 / det;
   ej_real T[9] = {c00 * id,
                   (A[2] * A[7] - A[1] * A[8]) * id,

@@ -5,10 +5,12 @@
  * gas). Monaghan viscosity Eqs 26-28; time step after Monaghan, "Smoothed particle
  * hydrodynamics", ARA&A 30 (1992) 543, section 10.3.
  *
- * Three passes per step, because a pair needs p, c, h (and L) of both particles:
+ * Up to four passes per step, because a pair needs p, c, h (and L or M^-1) of both particles:
+ *   (pairs, only with density: summation): rho_i = sum_j m_j W_ij;
  *   pass 0 (per particle): density floor, smoothing length h, EOS -> p, c;
  *   (the core copies fields to ghost particles between passes)
- *   pass 1 (pairs, only with `correction`): the gradient correction matrix L_i;
+ *   pass 1 (pairs, only with `correction` or gradient: shape_tensor): the gradient correction
+ *     matrix L_i, or the inverse current shape tensor M_i^-1 of 000 Eqs 29-37;
  *   pass 2 (pairs, gather form): accelerations and rates of rho, e, w_visc; mu_max for dt.
  * The method accumulates into a, rho_dot, e_dot and w_visc_dot, which the core zeroes (a:
  * sets to the body force) before pass 0, so that other contributions compose. */
@@ -16,13 +18,18 @@
 #include <string.h>
 
 #include "ejecta/plugin.h"
+#include "ejecta/tensor.h"
 #include "sph_kernels.h"
 
 typedef struct sph_config {
   int kernel;
   int continuity;
+  int density;
   bool renormalize;
   bool correction;
+  int gradient;
+  int shape_form;
+  ej_real shape_rcond_min;
   ej_real h_factor;
   bool variable_h;
   ej_real h_min, h_max;
@@ -33,6 +40,12 @@ typedef struct sph_config {
 static const char *const sph_kernel_names[] = {"cubic_spline", "wendland_c2", NULL};
 enum { SPH_CONT_VOLUME = 0, SPH_CONT_MASS = 1 };
 static const char *const sph_continuity_names[] = {"volume", "mass", NULL};
+enum { SPH_DENS_CONTINUITY = 0, SPH_DENS_SUMMATION = 1 };
+static const char *const sph_density_names[] = {"continuity", "summation", NULL};
+enum { SPH_GRAD_KERNEL = 0, SPH_GRAD_SHAPE = 1 };
+static const char *const sph_gradient_names[] = {"kernel", "shape_tensor", NULL};
+enum { SPH_SHAPE_SYMMETRIC = 0, SPH_SHAPE_PAPER = 1 };
+static const char *const sph_shape_form_names[] = {"symmetric", "paper", NULL};
 
 static const ej_param sph_params[] = {
     EJ_PARAM_ENUM(sph_config, kernel, sph_kernel_names, "cubic_spline",
@@ -42,6 +55,10 @@ static const ej_param sph_params[] = {
                   "(never reaches rho <= 0 in expansion to vacuum); mass, drho_i/dt = sum_j m_j v_ij.grad W "
                   "(000 Eq 22 as printed: less dissipative in the Sedov test, but a particle can reach the "
                   "density floor, where p/rho^2 collapses the time step)."),
+    EJ_PARAM_ENUM(sph_config, density, sph_density_names, "continuity",
+                  "Density: continuity, evolved by the continuity equation (form set by continuity); "
+                  "summation, rho_i = sum_j m_j W(x_ij, hbar) + m_i W(0, h_i) each step with h of the previous "
+                  "step (Monaghan 1992 Eq 2.7; one more pair pass)."),
     EJ_PARAM_BOOL(sph_config, renormalize, 1,
                   "Divide the discrete velocity divergence of the continuity equation by the discrete "
                   "divergence of x over dim, so that uniform compression and expansion are exact (the "
@@ -50,6 +67,19 @@ static const ej_param sph_params[] = {
                   "Kernel gradient correction (Bonet & Lok 1999) in the conservative form "
                   "G_ij = (L_i + L_j)/2 grad_i W_ij: linear fields exact on any particle arrangement "
                   "(needed when compression is one-sided, e.g. a shock tube in 3D); one more pair pass."),
+    EJ_PARAM_ENUM(sph_config, gradient, sph_gradient_names, "kernel",
+                  "Gradient operator: kernel, grad_i W_ij; shape_tensor, the consistent SPH of digest 000 "
+                  "Eqs 29-37, w_ij M_i^-1 x_ij with the current shape tensor M_i = sum_j V_j w_ij x_ij (x) x_ij "
+                  "(linear fields exact; one more pair pass)."),
+    EJ_PARAM_ENUM(sph_config, shape_form, sph_shape_form_names, "symmetric",
+                  "With gradient: shape_tensor: symmetric, G_ij = (g_i + g_j)/2 in the momentum and energy "
+                  "equations (equal and opposite pair forces: momentum and energy conserved to round-off); "
+                  "paper, G_ij = g_i = w_ij M_i^-1 x_ij as printed (000 Eqs 35-36), which conserves neither "
+                  "exactly. The continuity equation uses g_i in both."),
+    EJ_PARAM_REAL(sph_config, shape_rcond_min, "1", 0.02, 0.0, 1.0 / 3.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Smallest reciprocal condition estimate 1/(|M|_F |M^-1|_F) of a particle's shape tensor "
+                  "(1/3 for an isotropic neighbourhood) below which it falls back to the kernel gradient "
+                  "(counted: series gradient_fallbacks)."),
     EJ_PARAM_REAL(sph_config, h_factor, "1", 0.0, 0.0, 3.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Smoothing length in particle spacings, h = h_factor (m/rho)^(1/dim); 0 picks the "
                   "value where the kernel's lattice sums are most accurate for the dimension "
@@ -78,6 +108,7 @@ static const ej_param sph_params[] = {
 typedef struct sph_state {
   sph_config cfg;
   const ej_set *set;
+  int64_t shape_fallbacks; /* sum over the run of the per-step series (report op) */
   int dim;
   const ej_eos *eos;
   const char *set_name;
@@ -119,6 +150,15 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
          .doc = "Steps in which L_i was ill-conditioned and the uncorrected gradient was used."},
     };
     for (size_t k = 0; k < sizeof corr / sizeof corr[0]; ++k) EJ_TRY(ej_decl_field(d, &corr[k]));
+  }
+  if (cfg->gradient == SPH_GRAD_SHAPE) {
+    static const ej_field_decl shape[] = {
+        {.name = "M_inv", .kind = EJ_SYM6, .flags = EJ_FIELD_SCRATCH, .unit = "1/m^2",
+         .doc = "Inverse current shape tensor M_i^-1, M_i = sum_j V_j w_ij x_ij (x) x_ij (zero on fallback)."},
+        {.name = "grad_fallback", .kind = EJ_INT, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_OUTPUT, .unit = "1",
+         .doc = "1 where the shape tensor was ill-conditioned this step and the kernel gradient was used."},
+    };
+    for (size_t k = 0; k < sizeof shape / sizeof shape[0]; ++k) EJ_TRY(ej_decl_field(d, &shape[k]));
   }
   EJ_TRY(ej_decl_neighbours(d, EJ_NBR_CURRENT));
   return EJ_OK;
@@ -282,9 +322,13 @@ static ej_err sph_support(void *state, const ej_set *set, ej_range r, ej_real *r
 #define SPH_ALWAYS_INLINE
 #endif
 
+/* Neighbour entries per block of the blocked pair loops (gather, vectorised terms, sum). */
+#define SPH_BLK 128
+
 typedef struct sph_pair_args {
-  const ej_real *x, *v, *m, *rho, *p_rho2, *c, *h, *w_cont, *L;
-  bool volume_form, renormalize;
+  const ej_real *x, *v, *m, *rho, *p_rho2, *c, *h, *w_cont, *L, *M;
+  const int32_t *fb;
+  bool volume_form, renormalize, cont_rate;
   ej_real *a, *rho_dot, *e_dot, *w_dot, *mu_max;
   const ej_off *off;
   const ej_idx *idx;
@@ -381,6 +425,126 @@ static ej_err sph_corr_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
   return EJ_OK;
 }
 
+/* Current shape tensor of the consistent SPH, digest 000 Eqs 29-31 (Fan & Li): the discrete
+ * M_i = sum_j (m_j/rho_j) w(|x_ij|) x_ij (x) x_ij (the digest's [GAP] note: only the continuous
+ * Eq 30 is printed; this is the quadrature consistent with Eq 31), x_ij = x_j - x_i, w the kernel
+ * value at hbar (the same symmetric smoothing length as the pair loop). Accumulated in units of
+ * h_i^2 so that the condition estimate and the determinant test of ej_m3_inverse do not depend
+ * on the length scale. In 1D and 2D M_i is singular in the unused directions: only the
+ * dim x dim block is inverted (the unused diagonal is padded with the block's mean diagonal,
+ * which leaves the block's inverse untouched and makes an isotropic M give rcond = 1/3 in any
+ * dimension). A particle with few or coplanar neighbours (an isolated pair, an expanding front)
+ * has a nearly singular M_i: below shape_rcond_min it falls back to the kernel gradient
+ * (grad_fallback = 1, M_inv = 0). */
+static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int dim, const ej_real *restrict x,
+                                                     const ej_real *restrict m, const ej_real *restrict rho,
+                                                     const ej_real *restrict h, const ej_off *restrict off,
+                                                     const ej_idx *restrict idx, ej_real rcond_min,
+                                                     const ej_real *restrict vol, ej_real *restrict Minv,
+                                                     int32_t *restrict fb, ej_range rg)
+{
+  const ej_real sigma = sph_kernel_sigma(kernel, dim);
+  /* Blocked like sph_pairs_blocked: gather, then a vectorised sum (a fixed order for a given
+   * build, whatever the thread count); pairs beyond 2 hbar get weight 0. */
+  ej_real bx[SPH_BLK], by[SPH_BLK], bz[SPH_BLK], bh[SPH_BLK], bV[SPH_BLK];
+  for (ej_idx i = rg.begin; i < rg.end; ++i) {
+    ej_real b0 = 0, b1 = 0, b2 = 0, b3 = 0, b4 = 0, b5 = 0; /* xx yy zz xy yz zx */
+    const ej_real inv_hi = 1.0 / h[i], hi = h[i];
+    const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
+    for (ej_off k0 = off[i]; k0 < off[i + 1]; k0 += SPH_BLK) {
+      const int nk = (int)(off[i + 1] - k0 < SPH_BLK ? off[i + 1] - k0 : SPH_BLK);
+      for (int q = 0; q < nk; ++q) {
+        const ej_idx j = idx[k0 + q];
+        bx[q] = x[3 * j];
+        by[q] = dim > 1 ? x[3 * j + 1] : 0.0;
+        bz[q] = dim > 2 ? x[3 * j + 2] : 0.0;
+        bh[q] = h[j];
+        /* vol: m/rho from pass 0 (the volume-form continuity weight), the same number without a division */
+        bV[q] = vol ? vol[j] : m[j] / rho[j];
+#if defined(__GNUC__)
+        __asm__ volatile("");
+#endif
+      }
+#if defined(_OPENMP)
+#pragma omp simd reduction(+ : b0, b1, b2, b3, b4, b5)
+#endif
+      for (int q = 0; q < nk; ++q) {
+        const ej_real rx = bx[q] - xi0;
+        const ej_real ry = dim > 1 ? by[q] - xi1 : 0.0;
+        const ej_real rz = dim > 2 ? bz[q] - xi2 : 0.0;
+        const ej_real r2 = rx * rx + ry * ry + rz * rz;
+        const ej_real hbar = 0.5 * (hi + bh[q]);
+        const ej_real inv_h = 1.0 / hbar;
+        const ej_real w0 = bV[q] * sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, sqrt(r2) * inv_h);
+        const ej_real w = r2 < 4.0 * hbar * hbar ? w0 : 0.0;
+        b0 += w * rx * rx;
+        b1 += w * ry * ry;
+        b2 += w * rz * rz;
+        b3 += w * rx * ry;
+        b4 += w * ry * rz;
+        b5 += w * rz * rx;
+      }
+    }
+    ej_real b[6] = {b0, dim > 1 ? b1 : 0.0, dim > 2 ? b2 : 0.0, dim > 1 ? b3 : 0.0, dim > 2 ? b4 : 0.0,
+                    dim > 2 ? b5 : 0.0};
+    for (int c = 0; c < 6; ++c) b[c] *= inv_hi * inv_hi;
+    ej_real A[9], B[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    const ej_real pad = (b[0] + b[1] + b[2]) / dim;
+    ej_s6_to_m3(A, b);
+    if (dim < 3) A[8] = pad > 0.0 ? pad : 1.0;
+    if (dim < 2) A[4] = A[8];
+    ej_real rc = ej_m3_inverse(B, A);
+    /* ej_m3_inverse only rejects det == 0 in absolute terms: for a rank-1 M (an isolated pair in
+     * 3D) every cofactor is round-off too and the estimate can come out ~0.1. A determinant
+     * below 1e-12 of the scale (|A|_F/sqrt 3)^3 is singular whatever the estimate says. */
+    const ej_real sc = ej_m3_norm(A) * (1.0 / 1.7320508075688772);
+    if (!(fabs(ej_m3_det(A)) > 1e-12 * sc * sc * sc)) rc = 0.0;
+    ej_real *Mi = Minv + 6 * i;
+    if (rc >= rcond_min && rc > 0.0) {
+      const ej_real s2 = inv_hi * inv_hi;
+      ej_real t[6];
+      ej_m3_to_s6(t, B);
+      Mi[0] = t[0] * s2;
+      Mi[1] = dim > 1 ? t[1] * s2 : 0.0;
+      Mi[2] = dim > 2 ? t[2] * s2 : 0.0;
+      Mi[3] = dim > 1 ? t[3] * s2 : 0.0;
+      Mi[4] = dim > 2 ? t[4] * s2 : 0.0;
+      Mi[5] = dim > 2 ? t[5] * s2 : 0.0;
+      fb[i] = 0;
+    } else {
+      for (int c = 0; c < 6; ++c) Mi[c] = 0.0;
+      fb[i] = 1;
+    }
+  }
+}
+
+static ej_err sph_shape_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
+{
+  const ej_real *x = ej_set_field(set, "x"), *m = ej_set_field(set, "m"), *rho = ej_set_field(set, "rho");
+  const ej_real *h = ej_set_field(set, "h");
+  ej_real *Minv = ej_set_field(set, "M_inv");
+  int32_t *fb = ej_set_field_int(set, "grad_fallback");
+  EJ_ENSURE(x && m && rho && h && Minv && fb && nbr, EJ_ERR_INTERNAL, "set '%s': sph shape-tensor fields missing",
+            s->set_name);
+  const ej_real thr = s->cfg.shape_rcond_min;
+  const ej_real *vol = s->cfg.continuity == SPH_CONT_VOLUME ? ej_set_field(set, "w_cont") : NULL;
+#define SPH_SHAPE_CASE(k, d)                                                                            \
+  case (k) * 4 + (d):                                                                                   \
+    sph_shape_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, thr, vol, Minv, fb, r);                  \
+    break
+  switch (s->cfg.kernel * 4 + s->dim) {
+    SPH_SHAPE_CASE(SPH_KERNEL_CUBIC_SPLINE, 1);
+    SPH_SHAPE_CASE(SPH_KERNEL_CUBIC_SPLINE, 2);
+    SPH_SHAPE_CASE(SPH_KERNEL_CUBIC_SPLINE, 3);
+    SPH_SHAPE_CASE(SPH_KERNEL_WENDLAND_C2, 1);
+    SPH_SHAPE_CASE(SPH_KERNEL_WENDLAND_C2, 2);
+    SPH_SHAPE_CASE(SPH_KERNEL_WENDLAND_C2, 3);
+  default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: kernel %d, dimension %d", s->cfg.kernel, s->dim);
+  }
+#undef SPH_SHAPE_CASE
+  return EJ_OK;
+}
+
 /* The pair loop. kernel and dim are compile-time constants at every call site (the function
  * is always inlined into a switch), so the kernel branch and the dimension masks fold away.
  *
@@ -404,12 +568,13 @@ static ej_err sph_corr_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
  *   mu_ij = hbar v_ij.x_ij / (|x_ij|^2 + eta^2 hbar^2)                               (Eq 27)
  * v_ij.x_ij = (v_i - v_j).(x_i - x_j), so the digest's x_ij = x_j - x_i convention and ours
  * give the same mu. */
-static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, const bool corr,
+static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, const bool corr, const int shape,
                                                 const sph_pair_args *A, ej_range rg)
 {
   const ej_real *restrict x = A->x, *restrict v = A->v, *restrict m = A->m, *restrict rho = A->rho;
   const ej_real *restrict p_rho2 = A->p_rho2, *restrict c = A->c, *restrict h = A->h;
-  const ej_real *restrict w_cont = A->w_cont, *restrict L = A->L;
+  const ej_real *restrict w_cont = A->w_cont, *restrict L = A->L, *restrict M = A->M;
+  const int32_t *restrict fb = A->fb;
   const bool volume_form = A->volume_form, renormalize = A->renormalize && !corr;
   ej_real *restrict a = A->a, *restrict rho_dot = A->rho_dot, *restrict e_dot = A->e_dot;
   ej_real *restrict w_dot = A->w_dot, *restrict mu_max = A->mu_max;
@@ -424,6 +589,11 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
     const ej_real rhoi = rho[i], hi = h[i], ci = c[i];
     const ej_real pri = p_rho2[i];
     const ej_real *li = corr ? L + 6 * i : NULL;
+    /* shape tensor: a row whose M_i was ill-conditioned uses the kernel gradient (and, as in
+     * the kernel form, the renormalised divergence) */
+    const bool fbi = shape && fb[i];
+    const ej_real *mi = shape ? M + 6 * i : NULL;
+    const bool ren = shape ? renormalize && fbi : renormalize;
     ej_real ax = 0.0, ay = 0.0, az = 0.0, drho = 0.0, norm = 0.0, de = 0.0, dw = 0.0, mumax = 0.0;
     for (ej_off k = off[i]; k < off[i + 1]; ++k) {
       const ej_idx j = idx[k];
@@ -472,10 +642,42 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
         vC = vx * (li[0] * ux + li[3] * uy + li[5] * uz);
         if (dim > 1) vC += vy * (li[3] * ux + li[1] * uy + li[4] * uz);
         if (dim > 2) vC += vz * (li[5] * ux + li[4] * uy + li[2] * uz);
+      } else if (shape) {
+        /* Consistent SPH, digest 000 Eqs 34-37: grad_i W_ij -> g_i = w_ij M_i^-1 x_ij with
+         * x_ij = x_j - x_i = -r (pointing from i to j, like grad_i W_ij). shape == 1: the paper's
+         * G_ij = g_i in all equations; shape == 2: G_ij = (g_i + g_j)/2 in momentum and energy
+         * (antisymmetric: equal and opposite pair forces), g_i in the continuity equation. */
+        const ej_real wv = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
+        const ej_real ux = -wv * rx, uy = -wv * ry, uz = -wv * rz;
+        ej_real ix, iy, iz;
+        if (fbi) {
+          ix = gw * rx, iy = gw * ry, iz = gw * rz;
+        } else {
+          ix = mi[0] * ux + mi[3] * uy + mi[5] * uz;
+          iy = dim > 1 ? mi[3] * ux + mi[1] * uy + mi[4] * uz : 0.0;
+          iz = dim > 2 ? mi[5] * ux + mi[4] * uy + mi[2] * uz : 0.0;
+        }
+        /* a fallback row keeps the kernel form's rounding (bitwise the kernel result) */
+        vC = fbi ? vr * gw : vx * ix + vy * iy + vz * iz;
+        if (shape == 2) {
+          ej_real jx, jy, jz;
+          if (fb[j]) {
+            jx = gw * rx, jy = gw * ry, jz = gw * rz;
+          } else {
+            const ej_real *mj_ = M + 6 * j;
+            jx = mj_[0] * ux + mj_[3] * uy + mj_[5] * uz;
+            jy = dim > 1 ? mj_[3] * ux + mj_[1] * uy + mj_[4] * uz : 0.0;
+            jz = dim > 2 ? mj_[5] * ux + mj_[4] * uy + mj_[2] * uz : 0.0;
+          }
+          gx = 0.5 * (ix + jx), gy = 0.5 * (iy + jy), gz = 0.5 * (iz + jz);
+        } else {
+          gx = ix, gy = iy, gz = iz;
+        }
       } else {
         vC = vr * gw;
       }
-      const ej_real vG = corr ? vx * gx + vy * gy + vz * gz : vr * gw; /* (v_i - v_j) . G_ij */
+      const bool plain = !corr && (!shape || (fbi && (shape == 1 || fb[j])));
+      const ej_real vG = plain ? vr * gw : vx * gx + vy * gy + vz * gz; /* (v_i - v_j) . G_ij */
       ax -= fP * gx;
       if (dim > 1) ay -= fP * gy;
       if (dim > 2) az -= fP * gz;
@@ -493,7 +695,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
      * (the trace of the Randles & Libersky 1996 normalisation, CMAME 139, 375) makes the
      * divergence of any isotropic linear velocity field exact; mass, momentum and energy
      * conservation are untouched (masses are fixed, the continuity equation is not in them). */
-    if (renormalize && norm < 0.0) {
+    if (ren && norm < 0.0) {
       /* The factor only removes a quadrature bias of a few per cent. Far from 1, the support is
        * truncated or sparse (free surface, a disordered shock front) and the sum says nothing
        * about the bias: clamp it rather than amplify noise into the density. */
@@ -501,11 +703,218 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
       fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
       drho *= fac;
     }
-    rho_dot[i] += volume_form ? rhoi * drho : drho;
+    if (A->cont_rate) rho_dot[i] += volume_form ? rhoi * drho : drho;
     e_dot[i] += 0.5 * de;
     w_dot[i] += 0.5 * dw;
     mu_max[i] = mumax;
   }
+}
+
+/* The same pair loop for the plain kernel gradient (no correction, no shape tensor), in blocks
+ * of up to SPH_BLK entries of a row: (1) gather the neighbours' data into contiguous buffers,
+ * (2) evaluate every pair term in a loop without indexed loads or branches, which the compiler
+ * vectorises (divisions and sqrt four at a time), (3) accumulate the terms of the pairs inside
+ * 2 hbar in list order. Every term is the same IEEE expression as in sph_pairs, evaluated in
+ * the same order (ISO C: no FMA contraction), and the sums run in the same order, so the result
+ * is bitwise that of sph_pairs; the test r2 < 4 hbar^2 becomes a mask instead of a branch. */
+static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const int dim, const int shape,
+                                                        const sph_pair_args *A, ej_range rg)
+{
+  const ej_real *restrict x = A->x, *restrict v = A->v, *restrict m = A->m, *restrict rho = A->rho;
+  const ej_real *restrict p_rho2 = A->p_rho2, *restrict c = A->c, *restrict h = A->h;
+  const ej_real *restrict w_cont = A->w_cont, *restrict M = A->M;
+  const int32_t *restrict fb = A->fb;
+  const bool volume_form = A->volume_form, renormalize = A->renormalize;
+  ej_real *restrict a = A->a, *restrict rho_dot = A->rho_dot, *restrict e_dot = A->e_dot;
+  ej_real *restrict w_dot = A->w_dot, *restrict mu_max = A->mu_max;
+  const ej_off *restrict off = A->off;
+  const ej_idx *restrict idx = A->idx;
+  const ej_real alpha = A->alpha, beta = A->beta, eta2 = A->eta2;
+  const ej_real sigma = sph_kernel_sigma(kernel, dim);
+  /* shape == 2: the neighbour's M_j^-1 (6) and fallback flag */
+  ej_real bM[6][shape == 2 ? SPH_BLK : 1];
+  int32_t bfb[shape == 2 ? SPH_BLK : 1];
+  /* gathered neighbour data, then per-pair terms (21 KiB of stack, L1-resident); one array so
+   * that every buffer is a constant offset from one base register (no spilled pointers) */
+  enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BPR, BM, BW, TAX, TAY, TAZ, TDRHO, TNORM, TDE, TDW, TMU, NBUF };
+  ej_real buf[NBUF][SPH_BLK];
+  ej_real *restrict bx = buf[BX], *restrict by = buf[BY], *restrict bz = buf[BZ], *restrict bh = buf[BH];
+  ej_real *restrict bvx = buf[BVX], *restrict bvy = buf[BVY], *restrict bvz = buf[BVZ];
+  ej_real *restrict brho = buf[BRHO], *restrict bc = buf[BC], *restrict bpr = buf[BPR], *restrict bm = buf[BM];
+  ej_real *restrict bw = buf[BW], *restrict tax = buf[TAX], *restrict tay = buf[TAY], *restrict taz = buf[TAZ];
+  ej_real *restrict tdrho = buf[TDRHO], *restrict tnorm = buf[TNORM], *restrict tde = buf[TDE], *restrict tdw = buf[TDW];
+  ej_real *restrict tmu = buf[TMU];
+  int32_t keep[SPH_BLK];
+
+  for (ej_idx i = rg.begin; i < rg.end; ++i) {
+    const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
+    const ej_real vi0 = v[3 * i], vi1 = dim > 1 ? v[3 * i + 1] : 0.0, vi2 = dim > 2 ? v[3 * i + 2] : 0.0;
+    const ej_real rhoi = rho[i], hi = h[i], ci = c[i];
+    const ej_real pri = p_rho2[i];
+    /* shape tensor (as in sph_pairs): row i's M_i^-1 and fallback flag */
+    const int fbi = shape ? fb[i] : 0;
+    const ej_real mi0 = shape ? M[6 * i] : 0.0, mi1 = shape ? M[6 * i + 1] : 0.0, mi2 = shape ? M[6 * i + 2] : 0.0;
+    const ej_real mi3 = shape ? M[6 * i + 3] : 0.0, mi4 = shape ? M[6 * i + 4] : 0.0, mi5 = shape ? M[6 * i + 5] : 0.0;
+    const bool ren = shape ? renormalize && fbi : renormalize;
+    ej_real ax = 0.0, ay = 0.0, az = 0.0, drho = 0.0, norm = 0.0, de = 0.0, dw = 0.0, mumax = 0.0;
+    for (ej_off k0 = off[i]; k0 < off[i + 1]; k0 += SPH_BLK) {
+      const int nk = (int)(off[i + 1] - k0 < SPH_BLK ? off[i + 1] - k0 : SPH_BLK);
+      for (int q = 0; q < nk; ++q) {
+        const ej_idx j = idx[k0 + q];
+        bx[q] = x[3 * j];
+        by[q] = dim > 1 ? x[3 * j + 1] : 0.0;
+        bz[q] = dim > 2 ? x[3 * j + 2] : 0.0;
+        bvx[q] = v[3 * j];
+        bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0;
+        bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
+        bh[q] = h[j], brho[q] = rho[j], bc[q] = c[j], bpr[q] = p_rho2[j], bm[q] = m[j], bw[q] = w_cont[j];
+        if (shape == 2) {
+          for (int t = 0; t < 6; ++t) bM[t][q] = M[6 * j + t];
+          bfb[q] = fb[j];
+        }
+#if defined(__GNUC__)
+        /* keeps this loop scalar: vectorised, its indexed loads become element inserts (slower) */
+        __asm__ volatile("");
+#endif
+      }
+#if defined(_OPENMP)
+#pragma omp simd
+#endif
+      for (int q = 0; q < nk; ++q) {
+        const ej_real rx = xi0 - bx[q];
+        const ej_real ry = dim > 1 ? xi1 - by[q] : 0.0;
+        const ej_real rz = dim > 2 ? xi2 - bz[q] : 0.0;
+        const ej_real r2 = rx * rx + ry * ry + rz * rz;
+        const ej_real hbar = 0.5 * (hi + bh[q]);
+        keep[q] = r2 < 4.0 * hbar * hbar;
+        const ej_real r_raw = sqrt(r2), r_min = 1e-12 * hbar;
+        const ej_real r = r_raw > r_min ? r_raw : r_min;
+        const ej_real rhoj = brho[q];
+        const ej_real d1 = r2 + eta2 * hbar * hbar, rho_sum = rhoi + rhoj;
+        const ej_real inv_h = 1.0 / hbar, inv_r = 1.0 / r;
+        const ej_real inv_d1 = 1.0 / d1, inv_rho_sum = 1.0 / rho_sum;
+        const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) * inv_r;
+        const ej_real vx = vi0 - bvx[q];
+        const ej_real vy = dim > 1 ? vi1 - bvy[q] : 0.0;
+        const ej_real vz = dim > 2 ? vi2 - bvz[q] : 0.0;
+        const ej_real vr = vx * rx + vy * ry + vz * rz;
+        const ej_real mu = hbar * (vr < 0.0 ? vr : 0.0) * inv_d1;
+        const ej_real pi_ij = (-alpha * 0.5 * (ci + bc[q]) * mu + beta * mu * mu) * 2.0 * inv_rho_sum;
+        tmu[q] = -mu;
+        const ej_real mj = bm[q];
+        const ej_real fP = mj * (pri + bpr[q] + pi_ij);
+        ej_real gx = gw * rx, gy = gw * ry, gz = gw * rz;
+        ej_real vC = vr * gw, vG = vC;
+        if (shape) { /* the expressions of sph_pairs, with selects for the fallbacks */
+          const ej_real wv = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
+          const ej_real ux = -wv * rx, uy = -wv * ry, uz = -wv * rz;
+          const ej_real sx = mi0 * ux + mi3 * uy + mi5 * uz;
+          const ej_real sy = dim > 1 ? mi3 * ux + mi1 * uy + mi4 * uz : 0.0;
+          const ej_real sz = dim > 2 ? mi5 * ux + mi4 * uy + mi2 * uz : 0.0;
+          const ej_real ix = fbi ? gx : sx, iy = fbi ? gy : sy, iz = fbi ? gz : sz;
+          vC = fbi ? vr * gw : vx * ix + vy * iy + vz * iz;
+          if (shape == 2) {
+            const ej_real tx = bM[0][q] * ux + bM[3][q] * uy + bM[5][q] * uz;
+            const ej_real ty = dim > 1 ? bM[3][q] * ux + bM[1][q] * uy + bM[4][q] * uz : 0.0;
+            const ej_real tz = dim > 2 ? bM[5][q] * ux + bM[4][q] * uy + bM[2][q] * uz : 0.0;
+            const bool fj = bfb[q] != 0;
+            const ej_real jx = fj ? gx : tx, jy = fj ? gy : ty, jz = fj ? gz : tz;
+            gx = 0.5 * (ix + jx), gy = 0.5 * (iy + jy), gz = 0.5 * (iz + jz);
+            vG = (fbi && fj) ? vr * gw : vx * gx + vy * gy + vz * gz;
+          } else {
+            gx = ix, gy = iy, gz = iz;
+            vG = fbi ? vr * gw : vx * gx + vy * gy + vz * gz;
+          }
+        }
+        tax[q] = fP * gx;
+        tay[q] = fP * gy;
+        taz[q] = fP * gz;
+        tdrho[q] = bw[q] * vC;
+        tnorm[q] = bw[q] * r2 * gw;
+        tde[q] = fP * vG;
+        tdw[q] = mj * pi_ij * vG;
+      }
+      for (int q = 0; q < nk; ++q) {
+        if (!keep[q]) continue;
+        mumax = tmu[q] > mumax ? tmu[q] : mumax;
+        ax -= tax[q];
+        if (dim > 1) ay -= tay[q];
+        if (dim > 2) az -= taz[q];
+        drho += tdrho[q];
+        norm += tnorm[q];
+        de += tde[q];
+        dw += tdw[q];
+      }
+    }
+    a[3 * i] += ax;
+    if (dim > 1) a[3 * i + 1] += ay;
+    if (dim > 2) a[3 * i + 2] += az;
+    if (ren && norm < 0.0) { /* as in sph_pairs */
+      ej_real fac = -(ej_real)dim / (volume_form ? norm : norm / rhoi);
+      fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
+      drho *= fac;
+    }
+    if (A->cont_rate) rho_dot[i] += volume_form ? rhoi * drho : drho;
+    e_dot[i] += 0.5 * de;
+    w_dot[i] += 0.5 * dw;
+    mu_max[i] = mumax;
+  }
+}
+
+/* Summation density (density: summation; Monaghan, ARA&A 30 (1992) 543, Eq 2.7):
+ * rho_i = m_i W(0, h_i) + sum_j m_j W(|x_ij|, hbar_ij), with h of the previous step (the h field:
+ * h follows rho, so the pair evaluates the kernel with the h that found its neighbours). The core
+ * integrates rho with the trapezoid rho = rho_half + dt/2 rho_dot after the passes; setting
+ * rho_dot = 2 (rho_sum - rho_half)/dt makes that land on rho_sum, so the density of the step is
+ * the summed one wherever the core looks (frames, checkpoints, the next step's pass 0). */
+static inline SPH_ALWAYS_INLINE void sph_sum_rows(const int kernel, const int dim, const ej_real *restrict x,
+                                                   const ej_real *restrict m, const ej_real *restrict h,
+                                                   const ej_off *restrict off, const ej_idx *restrict idx,
+                                                   const ej_real *restrict rho_half, ej_real dt,
+                                                   ej_real *restrict rho, ej_real *restrict rho_dot, ej_range rg)
+{
+  const ej_real sigma = sph_kernel_sigma(kernel, dim);
+  for (ej_idx i = rg.begin; i < rg.end; ++i) {
+    ej_real sum = m[i] * sigma * sph_inv_pow(1.0 / h[i], dim) * sph_kernel_f(kernel, dim, 0.0);
+    for (ej_off k = off[i]; k < off[i + 1]; ++k) {
+      const ej_idx j = idx[k];
+      const ej_real rx = x[3 * i] - x[3 * j];
+      const ej_real ry = dim > 1 ? x[3 * i + 1] - x[3 * j + 1] : 0.0;
+      const ej_real rz = dim > 2 ? x[3 * i + 2] - x[3 * j + 2] : 0.0;
+      const ej_real r2 = rx * rx + ry * ry + rz * rz;
+      const ej_real hbar = 0.5 * (h[i] + h[j]);
+      if (r2 >= 4.0 * hbar * hbar) continue;
+      const ej_real inv_h = 1.0 / hbar;
+      sum += m[j] * sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, sqrt(r2) * inv_h);
+    }
+    rho_dot[i] = dt > 0.0 ? 2.0 * (sum - rho_half[i]) / dt : 0.0;
+    rho[i] = sum;
+  }
+}
+
+static ej_err sph_sum_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
+{
+  const ej_real *x = ej_set_field(set, "x"), *m = ej_set_field(set, "m"), *h = ej_set_field(set, "h");
+  const ej_real *rho_half = ej_set_field(set, "rho_half");
+  ej_real *rho = ej_set_field(set, "rho"), *rho_dot = ej_set_field(set, "rho_dot");
+  EJ_ENSURE(x && m && h && rho_half && rho && rho_dot && nbr, EJ_ERR_INTERNAL,
+            "set '%s': sph summation-density fields missing", s->set_name);
+  const ej_real dt = ej_set_dt(set);
+#define SPH_SUM_CASE(k, d)                                                                              \
+  case (k) * 4 + (d):                                                                                   \
+    sph_sum_rows((k), (d), x, m, h, nbr->off, nbr->idx, rho_half, dt, rho, rho_dot, r);                \
+    break
+  switch (s->cfg.kernel * 4 + s->dim) {
+    SPH_SUM_CASE(SPH_KERNEL_CUBIC_SPLINE, 1);
+    SPH_SUM_CASE(SPH_KERNEL_CUBIC_SPLINE, 2);
+    SPH_SUM_CASE(SPH_KERNEL_CUBIC_SPLINE, 3);
+    SPH_SUM_CASE(SPH_KERNEL_WENDLAND_C2, 1);
+    SPH_SUM_CASE(SPH_KERNEL_WENDLAND_C2, 2);
+    SPH_SUM_CASE(SPH_KERNEL_WENDLAND_C2, 3);
+  default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: kernel %d, dimension %d", s->cfg.kernel, s->dim);
+  }
+#undef SPH_SUM_CASE
+  return EJ_OK;
 }
 
 static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
@@ -516,18 +925,24 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
       .x = ej_set_field(set, "x"), .v = ej_set_field(set, "v"), .m = ej_set_field(set, "m"),
       .rho = ej_set_field(set, "rho"), .p_rho2 = ej_set_field(set, "p_rho2"), .c = ej_set_field(set, "c"),
       .h = ej_set_field(set, "h"), .w_cont = ej_set_field(set, "w_cont"), .L = ej_set_field(set, "L_corr"),
-      .volume_form = s->cfg.continuity == SPH_CONT_VOLUME, .renormalize = s->cfg.renormalize, .a = ej_set_field(set, "a"), .rho_dot = ej_set_field(set, "rho_dot"),
+      .M = ej_set_field(set, "M_inv"), .fb = ej_set_field_int(set, "grad_fallback"),
+      .volume_form = s->cfg.continuity == SPH_CONT_VOLUME, .renormalize = s->cfg.renormalize,
+      .cont_rate = s->cfg.density == SPH_DENS_CONTINUITY, .a = ej_set_field(set, "a"), .rho_dot = ej_set_field(set, "rho_dot"),
       .e_dot = ej_set_field(set, "e_dot"), .w_dot = ej_set_field(set, "w_visc_dot"),
       .mu_max = ej_set_field(set, "mu_max"), .off = nbr->off, .idx = nbr->idx,
       .alpha = s->cfg.alpha, .beta = s->cfg.beta, .eta2 = s->cfg.eta * s->cfg.eta};
   EJ_ENSURE(A.x && A.v && A.m && A.rho && A.p_rho2 && A.c && A.h && A.w_cont && A.a && A.rho_dot && A.e_dot && A.w_dot &&
                 A.mu_max,
             EJ_ERR_INTERNAL, "set '%s': sph fields missing", s->set_name);
-  /* One instantiation per (kernel, dim): no per-pair dispatch. */
+  const int shape = s->cfg.gradient != SPH_GRAD_SHAPE ? 0 : s->cfg.shape_form == SPH_SHAPE_PAPER ? 1 : 2;
+  EJ_ENSURE(!shape || (A.M && A.fb), EJ_ERR_INTERNAL, "set '%s': sph shape-tensor fields missing", s->set_name);
+  /* One instantiation per (kernel, dim, gradient): no per-pair dispatch. */
 #define SPH_CASE(k, d)                                                                                  \
   case (k) * 4 + (d):                                                                                   \
-    if (s->cfg.correction) sph_pairs((k), (d), true, &A, r);                                            \
-    else sph_pairs((k), (d), false, &A, r);                                                             \
+    if (shape == 1) sph_pairs_blocked((k), (d), 1, &A, r);                                              \
+    else if (shape == 2) sph_pairs_blocked((k), (d), 2, &A, r);                                         \
+    else if (s->cfg.correction) sph_pairs((k), (d), true, 0, &A, r);                                    \
+    else sph_pairs_blocked((k), (d), 0, &A, r);                                                         \
     break
   switch (s->cfg.kernel * 4 + s->dim) {
     SPH_CASE(SPH_KERNEL_CUBIC_SPLINE, 1);
@@ -547,6 +962,12 @@ static ej_err sph_counters(void *state, ej_counter *out, int max, int *n)
 {
   const sph_state *s = state;
   *n = 0;
+  if (s->cfg.gradient == SPH_GRAD_SHAPE && max >= 1) {
+    out[0] = (ej_counter){.name = "shape tensor fallbacks to the kernel gradient (particle-steps)",
+                          .value = s->shape_fallbacks};
+    *n = 1;
+    return EJ_OK;
+  }
   const int32_t *fb = ej_set_field_int(s->set, "corr_fallbacks");
   if (!fb || max < 1) return EJ_OK;
   int64_t total = 0;
@@ -556,22 +977,53 @@ static ej_err sph_counters(void *state, ej_counter *out, int max, int *n)
   return EJ_OK;
 }
 
-/* Without the correction the matrix pass is skipped: passes 0 and 2 become 0 and 1. */
+/* Per-step series: the number of particles whose shape tensor fell back to the kernel gradient
+ * in this step's force evaluation (the core calls report once per step, serially). */
+static ej_err sph_report(void *state, const ej_set *set, ej_series_value *out, int max, int *n)
+{
+  sph_state *s = state;
+  *n = 0;
+  if (s->cfg.gradient != SPH_GRAD_SHAPE || max < 1) return EJ_OK;
+  const int32_t *fb = ej_set_field_int(set, "grad_fallback");
+  EJ_ENSURE(fb, EJ_ERR_INTERNAL, "set '%s': sph field grad_fallback missing", s->set_name);
+  int64_t count = 0;
+  for (ej_idx i = 0; i < ej_set_count(set); ++i) count += fb[i];
+  s->shape_fallbacks += count;
+  out[0] = (ej_series_value){.name = "gradient_fallbacks", .value = (ej_real)count, .role = EJ_SERIES_PLAIN};
+  *n = 1;
+  return EJ_OK;
+}
+
+/* Logical passes: 0 summation density (density: summation only), 1 per particle, 2 matrix
+ * (correction or shape tensor only), 3 pairs. The unused ones are skipped (pass_count), so the
+ * core's pass k is the k-th used one and saves the ghost refreshes of the others. */
+static bool sph_has_matrix_pass(const sph_config *cfg) { return cfg->correction || cfg->gradient == SPH_GRAD_SHAPE; }
+
+static int sph_logical_pass(const sph_config *cfg, int pass)
+{
+  if (cfg->density != SPH_DENS_SUMMATION) ++pass;
+  if (!sph_has_matrix_pass(cfg) && pass >= 2) ++pass;
+  return pass;
+}
+
 static int sph_pass_count(const void *state)
 {
   const sph_state *s = state;
-  return s->cfg.correction ? 3 : 2;
+  return 2 + (sph_has_matrix_pass(&s->cfg) ? 1 : 0) + (s->cfg.density == SPH_DENS_SUMMATION ? 1 : 0);
 }
 
 static ej_err sph_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass, ej_range r)
 {
   const sph_state *s = state;
-  if (!s->cfg.correction && pass == 1) pass = 2;
-  switch (pass) {
-  case 0: EJ_TRY(sph_particle_pass(s, set, r)); break;
-  case 1: EJ_TRY(sph_corr_pass(s, set, nbr, r)); break;
-  case 2: EJ_TRY(sph_pair_pass(s, set, nbr, r)); break;
-  default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: pass %d of 3", pass);
+  switch (sph_logical_pass(&s->cfg, pass)) {
+  case 0: EJ_TRY(sph_sum_pass(s, set, nbr, r)); break;
+  case 1: EJ_TRY(sph_particle_pass(s, set, r)); break;
+  case 2:
+    if (s->cfg.gradient == SPH_GRAD_SHAPE) EJ_TRY(sph_shape_pass(s, set, nbr, r));
+    else EJ_TRY(sph_corr_pass(s, set, nbr, r));
+    break;
+  case 3: EJ_TRY(sph_pair_pass(s, set, nbr, r)); break;
+  default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: pass %d of %d", pass, sph_pass_count(s));
   }
   return EJ_OK;
 }
@@ -605,6 +1057,16 @@ static ej_err sph_stable_dt(void *state, const ej_set *set, ej_range r, ej_real 
 
 /* ------------------------------------------------------------------ registration */
 
+static ej_err sph_check_config(const void *config, ej_diag *diag)
+{
+  const sph_config *cfg = config;
+  if (cfg->gradient == SPH_GRAD_SHAPE && cfg->correction)
+    return ej_diag_error(diag, "correction",
+                         "correction applies to the kernel gradient only; gradient: shape_tensor is already "
+                         "exact for linear fields (remove one of them)");
+  return EJ_OK;
+}
+
 static const ej_method_ops sph_ops = {
     .struct_size = sizeof(ej_method_ops),
     .name = "sph",
@@ -612,23 +1074,27 @@ static const ej_method_ops sph_ops = {
     .doc = "Compressible SPH in the standard symmetric form (Fan & Li, digest 000 Eqs 22-28, with the Eq 24 "
            "sign erratum): density by the continuity equation (by default in the volume form, renormalised "
            "so that uniform compression is exact), pressure from the material's EOS, Monaghan viscosity, "
-           "cubic-spline or Wendland C2 kernel with support 2h, variable h bounded by h_min and h_max, and "
-           "an optional conservative kernel gradient correction. Energy and momentum are conserved to "
-           "round-off by the semi-discrete equations. Needs an EOS; no strength model.",
+           "cubic-spline or Wendland C2 kernel with support 2h, variable h bounded by h_min and h_max, an "
+           "optional conservative kernel gradient correction, optional summation density, and the "
+           "consistent SPH of digest 000 Eqs 29-37 (gradient: shape_tensor, current shape tensor, with a "
+           "counted fallback to the kernel gradient where it is ill-conditioned). Energy and momentum are "
+           "conserved to round-off by the semi-discrete equations (not by shape_form: paper). Needs an EOS; "
+           "no strength model.",
     .params = sph_params,
     .config_size = sizeof(sph_config),
-    .check_config = NULL,
+    .check_config = sph_check_config,
     .declare = sph_declare,
     .create = sph_create,
     .setup = sph_setup,
     .support = sph_support,
-    .n_passes = 3,
+    .n_passes = 4,
     .compute = sph_compute,
     .stable_dt = sph_stable_dt,
     .post_step = NULL,
     .counters = sph_counters,
     .pass_count = sph_pass_count,
     .destroy = sph_destroy,
+    .report = sph_report,
 };
 
 static ej_err sph_register(ej_registry *reg)
