@@ -2,12 +2,13 @@
 BUILD    ?= build
 ASAN     ?= build-asan
 JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
-SCENE    ?= examples/sedov_3d.yaml
+SCENE    ?= examples/buried_charge.yaml
 PYTHON   ?= /usr/bin/python3
 CMAKE_ARGS ?=
 DEB_DEPS := cmake make gcc pkg-config libyaml-dev libhdf5-dev check python3 python3-h5py python3-numpy python3-matplotlib
 
 .PHONY: all deps build run test test-sanitize validate bench schema clean
+.PHONY: fuzz docs
 
 all: build
 
@@ -26,9 +27,12 @@ $(BUILD)/CMakeCache.txt: | deps
 build: deps $(BUILD)/CMakeCache.txt
 	cmake --build $(BUILD) -j $(JOBS)
 
+# The default scene is the buried charge: afterwards, the soil bubble (height and width against
+# time, CSV and PNG) and cuts through the symmetry plane coloured by speed (PNG).
 run: build
 	@mkdir -p out
 	$(BUILD)/bin/ejecta run $(SCENE)
+	@if [ "$(SCENE)" = "examples/buried_charge.yaml" ]; then $(PYTHON) tools/bubble.py out/buried_charge.h5; fi
 
 test: build
 	ctest --test-dir $(BUILD) --output-on-failure -j $(JOBS)
@@ -51,3 +55,16 @@ schema: build
 
 clean:
 	rm -rf $(BUILD) $(ASAN)
+
+# Plugin reference pages from the parameter tables (test_docs fails when they are stale).
+docs: build
+	mkdir -p docs/plugins && $(BUILD)/bin/ejecta describe --markdown -o docs/plugins
+
+# libFuzzer harnesses (clang; -fsanitize=fuzzer,address,undefined) on the scene parser and
+# validator and on the CSV particle importer, FUZZ_SECONDS each; corpora in tests/fuzz/.
+FUZZ_SECONDS ?= 60
+FUZZ_BUILD   ?= build-fuzz
+fuzz:
+	@command -v clang >/dev/null || { echo "make fuzz needs clang (apt-get install clang)"; exit 2; }
+	tests/fuzz/build.sh $(FUZZ_BUILD)
+	tests/fuzz/run.sh $(FUZZ_BUILD) $(FUZZ_SECONDS)

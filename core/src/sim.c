@@ -1074,8 +1074,9 @@ static ej_err ej_watchdog(ej_sim *sim)
       const int32_t *id = s->fields[s->f_id].data;
       if (fk == -2)
         EJ_FAIL(EJ_ERR_NUMERIC,
-                "watchdog: particle left the domain (%s:%d) at step %lld, t = %.6g s, set '%s', particle id %d at "
+                "watchdog: particle %s the domain (%s:%d) at step %lld, t = %.6g s, set '%s', particle id %d at "
                 "(%.6g, %.6g, %.6g), velocity (%.6g, %.6g, %.6g) m/s",
+                sim->step > 0 ? "left" : "starts outside",
                 sim->scene->domain_loc.file ? sim->scene->domain_loc.file : "scene", sim->scene->domain_loc.line,
                 (long long)sim->step, sim->t, s->name, id[bad], x[3 * bad], x[3 * bad + 1], x[3 * bad + 2], v[3 * bad],
                 v[3 * bad + 1], v[3 * bad + 2]);

@@ -463,6 +463,53 @@ static void det_run(int threads, const char *dir, ej_real **out, ej_idx *n_out)
   unlink(h5);
 }
 
+/* ------------------------------------------------------------------ stable step of the family */
+
+/* 1-D chain, horizon 1.5 dx (one neighbour each side), no partial volumes, nu = 0 (M = E),
+ * zhu_zhao hourglass c_h = 0.5. Gershgorin bound of tlpd_stable_dt by hand, interior particle:
+ * correspondence rows i-1, i+1 give 2 dx M (1/2dx)(1/dx) = M/dx; hourglass springs (C = c_h E /
+ * dx^3 per row) 2 V_i sum (A C_i + B C_j) = 8 c_h E / dx: lambda = E (1 + 8 c_h) / (rho dx^2),
+ * dt = 2 dx / (c sqrt(5)). After the bond (i, i+1) breaks: own row K = dx^3, |K^-1 m1| = 1/dx,
+ * H = 2/dx gives 2 M/dx, row i-1 0.5 M/dx, springs (C_i = 2 c_h E/dx^3) 6 c_h E/dx:
+ * dt = 2 dx / (c sqrt(5.5)). Both below dx/c, so the family bound is what stable_dt returns. */
+START_TEST(test_stable_dt_family)
+{
+  const char *y = "ejecta: 1\ndimension: 1\ntime: {end: 1e-6}\n"
+                  "materials: {m: {model: elastic, rho0: 2000, E: 1 GPa, nu: 0}}\n"
+                  "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0], max: [0.4]}}, spacing: 0.01, "
+                  "horizon: 1.5, partial_volume: false, hourglass: zhu_zhao, hourglass_coefficient: 0.5, "
+                  "failure: {critical_stretch: 0.01}}}\n";
+  trun r;
+  trun_open(&r, y);
+  ej_set *s = r.sim->sets[0];
+  const ej_idx n = ej_set_count(s);
+  ck_assert_int_eq(n, 40);
+  trun_compute(&r);
+  const double dx = 0.01, c = sqrt(1e9 / 2000.0);
+  const ej_real *x0 = ej_set_field(s, "x0");
+  ej_idx i = -1;
+  for (ej_idx k = 0; k < n; ++k)
+    if (fabs(x0[3 * k] - 0.205) < 1e-9) i = k;
+  ck_assert_int_ge(i, 0);
+  ej_real dt = 0;
+  ck_assert_int_eq(s->mops->stable_dt(s->mstate, s, (ej_range){i, i + 1}, &dt), EJ_OK);
+  ck_assert_msg(fabs(dt / (2 * dx / (c * sqrt(5.0))) - 1) < 1e-6, "intact: dt %g, expected %g", dt, 2 * dx / (c * sqrt(5.0)));
+  /* break the bond to the right neighbour: shift everything right of x = 0.21 by 0.02 dx */
+  ej_real *x = ej_set_field(s, "x");
+  for (ej_idx k = 0; k < n; ++k)
+    if (x0[3 * k] > 0.21) x[3 * k] += 0.02 * dx;
+  ck_assert_int_eq(s->mops->post_step(s->mstate, s, (ej_range){0, n}), EJ_OK);
+  ck_assert_int_eq(s->mops->stable_dt(s->mstate, s, (ej_range){i, i + 1}, &dt), EJ_OK);
+  ck_assert_msg(fabs(dt / (2 * dx / (c * sqrt(5.5))) - 1) < 1e-6, "broken: dt %g, expected %g", dt, 2 * dx / (c * sqrt(5.5)));
+  /* a particle whose families did not change keeps the intact value (x = 0.105) */
+  for (ej_idx k = 0; k < n; ++k)
+    if (fabs(x0[3 * k] - 0.105) < 1e-9) i = k;
+  ck_assert_int_eq(s->mops->stable_dt(s->mstate, s, (ej_range){i, i + 1}, &dt), EJ_OK);
+  ck_assert_msg(fabs(dt / (2 * dx / (c * sqrt(5.0))) - 1) < 1e-6, "far: dt %g", dt);
+  trun_close(&r);
+}
+END_TEST
+
 START_TEST(test_thread_determinism)
 {
   char dir[64];
@@ -499,6 +546,7 @@ int main(void)
   tcase_add_test(tc, test_point_failure_detached);
   tcase_add_test(tc, test_spring_fallback);
   tcase_add_test(tc, test_thread_determinism);
+  tcase_add_test(tc, test_stable_dt_family);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

@@ -108,6 +108,12 @@ def main():
     ok = True
     for (tag, E, objective), axk in zip(cases, axs.flat):
         path = res[(tag, objective)]
+        if path is not None:
+            try:  # a run stopped while writing may leave an unreadable file
+                common.frames(path)
+            except OSError as err:
+                print(f"{tag} objective={objective}: unreadable output {path} ({err})")
+                path = None
         if path is None:
             print(f"{tag} objective={objective}: no output")
             ok &= not objective
