@@ -35,6 +35,11 @@ typedef struct sph_config {
   ej_real h_min, h_max;
   ej_real alpha, beta, eta;
   ej_real rho_min;
+  bool strength;
+  int stress_rate;
+  bool art_stress;
+  ej_real art_eps, art_n;
+  ej_real xsph;
 } sph_config;
 
 static const char *const sph_kernel_names[] = {"cubic_spline", "wendland_c2", NULL};
@@ -46,6 +51,9 @@ enum { SPH_GRAD_KERNEL = 0, SPH_GRAD_SHAPE = 1 };
 static const char *const sph_gradient_names[] = {"kernel", "shape_tensor", NULL};
 enum { SPH_SHAPE_SYMMETRIC = 0, SPH_SHAPE_PAPER = 1 };
 static const char *const sph_shape_form_names[] = {"symmetric", "paper", NULL};
+enum { SPH_RATE_HW = 0, SPH_RATE_JAUMANN = 1 };
+static const char *const sph_stress_rate_names[] = {"hughes_winget", "jaumann", NULL};
+#define SPH_MAX_HIST 16
 
 static const ej_param sph_params[] = {
     EJ_PARAM_ENUM(sph_config, kernel, sph_kernel_names, "cubic_spline",
@@ -103,6 +111,23 @@ static const ej_param sph_params[] = {
                   EJ_PF_HAS_MIN | EJ_PF_HAS_MAX | EJ_PF_MAX_OPEN | EJ_PF_EXPERT,
                   "Density floor as a fraction of each particle's initial density m/vol0; guards "
                   "the EOS and h against expansion into vacuum."),
+    EJ_PARAM_BOOL(sph_config, strength, 0,
+                  "Solid mechanics: the material's strength model gives the Cauchy stress (Libersky-Petschek "
+                  "form, README); required when the material has a strength model, because the method's "
+                  "declare op cannot see the material (ABI 1.1)."),
+    EJ_PARAM_ENUM(sph_config, stress_rate, sph_stress_rate_names, "hughes_winget",
+                  "With strength: objective update of the stress of t_n, hughes_winget (Q sigma Q^T, exact "
+                  "rotation) or jaumann (explicit sigma + dt (w sigma - sigma w))."),
+    EJ_PARAM_BOOL(sph_config, art_stress, 1,
+                  "With strength: Monaghan/Gray artificial stress against the tensile instability (Gray, "
+                  "Monaghan & Swift 2001), f_ij^n (R_i + R_j) added to the pair stress."),
+    EJ_PARAM_REAL(sph_config, art_eps, "1", 0.3, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Artificial-stress coefficient epsilon: R = -epsilon sigma'/rho^2 for principal tension."),
+    EJ_PARAM_REAL(sph_config, art_n, "1", 4.0, 1.0, 16.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Artificial-stress exponent n of f_ij = W(r_ij)/W(dx), dx the initial spacing."),
+    EJ_PARAM_REAL(sph_config, xsph, "1", 0.0, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "With strength: XSPH coefficient epsilon (Monaghan 1989): after each step the particles move by "
+                  "dt eps sum_j (m_j/rhobar_ij) (v_j - v_i) W_ij on top of the integrator; 0 is off."),
     {0}};
 
 typedef struct sph_state {
@@ -111,6 +136,8 @@ typedef struct sph_state {
   int64_t shape_fallbacks; /* sum over the run of the per-step series (report op) */
   int dim;
   const ej_eos *eos;
+  const ej_material *mat; /* strength model (strength: true), else NULL */
+  ej_real K, G;           /* its initial moduli */
   const char *set_name;
 } sph_state;
 
@@ -160,6 +187,30 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
     };
     for (size_t k = 0; k < sizeof shape / sizeof shape[0]; ++k) EJ_TRY(ej_decl_field(d, &shape[k]));
   }
+  if (cfg->strength) {
+    static const ej_field_decl solid[] = {
+        {.name = "stress", .kind = EJ_SYM6, .flags = EJ_FIELD_OUTPUT, .unit = "Pa",
+         .doc = "Cauchy stress (tension positive) from the strength model."},
+        {.name = "d_rate", .kind = EJ_SYM6, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "1/s",
+         .doc = "Rate of deformation sym(L) of the step."},
+        {.name = "c_mat", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "m/s",
+         .doc = "Sound speed returned by the strength model."},
+        {.name = "wp_inc", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "J/kg",
+         .doc = "Specific plastic work of the step."},
+        {.name = "w_plastic", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "J/kg",
+         .rate = "w_plastic_dot", .energy = EJ_ENERGY_PLASTIC,
+         .doc = "Specific plastic work (already part of e)."},
+        {.name = "sigma_rho2", .kind = EJ_SYM6, .flags = EJ_FIELD_SCRATCH, .unit = "m^5/(kg s^2)",
+         .doc = "sigma / rho^2 for the pair loop."},
+        {.name = "art_stress", .kind = EJ_SYM6, .flags = EJ_FIELD_SCRATCH, .unit = "m^5/(kg s^2)",
+         .doc = "Artificial stress R_i (Gray, Monaghan & Swift 2001)."},
+        {.name = "failed", .kind = EJ_INT, .flags = EJ_FIELD_OUTPUT | EJ_FIELD_NO_GHOST, .unit = "1",
+         .doc = "1 once the strength model reported failure (no shear, no tension afterwards)."},
+        {.name = "v_xsph", .kind = EJ_VEC3, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "m/s",
+         .doc = "XSPH velocity correction eps sum_j (m_j/rhobar_ij) (v_j - v_i) W_ij (xsph > 0)."},
+    };
+    for (size_t k = 0; k < sizeof solid / sizeof solid[0]; ++k) EJ_TRY(ej_decl_field(d, &solid[k]));
+  }
   EJ_TRY(ej_decl_neighbours(d, EJ_NBR_CURRENT));
   return EJ_OK;
 }
@@ -175,14 +226,20 @@ static ej_err sph_create(const void *config, ej_set *set, const ej_model *model,
   EJ_ENSURE(cfg->kernel == SPH_KERNEL_CUBIC_SPLINE || cfg->kernel == SPH_KERNEL_WENDLAND_C2, EJ_ERR_ARG,
             "sph: kernel index %d unknown", cfg->kernel);
   const ej_eos *eos = ej_model_eos(model);
-  EJ_ENSURE(eos, EJ_ERR_UNSUPPORTED,
+  const ej_material *mat = ej_model_material(model);
+  EJ_ENSURE(eos || mat, EJ_ERR_UNSUPPORTED,
             "set '%s': sph needs an equation of state, and material '%s' has none (add eos: {...})",
             ej_set_name(set), ej_model_name(model));
-  /* Pure gas dynamics: a deviatoric strength model would be silently ignored. */
-  EJ_ENSURE(!ej_model_material(model), EJ_ERR_UNSUPPORTED,
-            "set '%s': sph models fluids only (pressure from the EOS); material '%s' has a strength "
-            "model, which it would ignore",
+  /* A strength model needs the solid fields, which declare adds only with strength: true. */
+  EJ_ENSURE(!mat || cfg->strength, EJ_ERR_UNSUPPORTED,
+            "set '%s': material '%s' has a strength model; add 'strength: true' to the sph method so that "
+            "the stress is computed (without it sph models fluids only)",
             ej_set_name(set), ej_model_name(model));
+  EJ_ENSURE(mat || !cfg->strength, EJ_ERR_UNSUPPORTED,
+            "set '%s': sph has strength: true, but material '%s' has no strength model", ej_set_name(set),
+            ej_model_name(model));
+  EJ_ENSURE(!mat || ej_material_n_hist(mat) <= SPH_MAX_HIST, EJ_ERR_UNSUPPORTED,
+            "set '%s': sph supports at most %d history variables", ej_set_name(set), SPH_MAX_HIST);
   sph_state *s = ej_calloc(1, sizeof *s);
   EJ_ENSURE(s, EJ_ERR_MEM, "sph: out of memory");
   s->cfg = *cfg;
@@ -205,6 +262,14 @@ static ej_err sph_create(const void *config, ej_set *set, const ej_model *model,
             s->cfg.h_factor);
   s->dim = dim;
   s->eos = eos;
+  s->mat = mat;
+  if (mat) {
+    const ej_err rc = ej_material_moduli(mat, &s->K, &s->G);
+    if (rc != EJ_OK) {
+      ej_free(s);
+      return rc;
+    }
+  }
   s->set_name = ej_set_name(set);
   s->set = set;
   *state = s;
@@ -272,8 +337,16 @@ static ej_err sph_particle_pass(const sph_state *s, ej_set *set, ej_range r)
     if (!(rho[i] > 0.0)) return sph_bad_particle(s, set, i, "density rho", rho[i]);
     h[i] = sph_h(cfg, dim, m[i], vol0[i], rho[i]);
   }
-  if (r.end > r.begin)
+  if (r.end > r.begin && s->eos)
     EJ_TRY(ej_eos_evaluate_set(s->eos, set, r, rho + r.begin, e + r.begin, p + r.begin, c + r.begin));
+  if (!s->eos) { /* strength model without EOS: p of the current stress, c of the moduli */
+    const ej_real *stress = ej_set_field(set, "stress");
+    EJ_ENSURE(stress, EJ_ERR_INTERNAL, "set '%s': sph field stress missing", s->set_name);
+    for (ej_idx i = r.begin; i < r.end; ++i) {
+      p[i] = -ej_s6_trace(stress + 6 * i) / 3.0;
+      c[i] = sqrt((s->K + 4.0 * s->G / 3.0) / rho[i]);
+    }
+  }
   for (ej_idx i = r.begin; i < r.end; ++i) {
     p_rho2[i] = p[i] / (rho[i] * rho[i]);
     w_cont[i] = cfg->continuity == SPH_CONT_VOLUME ? m[i] / rho[i] : m[i];
@@ -958,6 +1031,269 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
   return EJ_OK;
 }
 
+/* ------------------------------------------------------------------ solids (strength: true) */
+
+/* Solid mechanics (issue 6): the Libersky-Petschek form of SPH for elastic-plastic solids,
+ * L. D. Libersky, A. G. Petschek, T. C. Carney, J. R. Hipp, F. A. Allahdadi, J. Comput. Phys.
+ * 109 (1993) 67, with the stress of the material plugin (digest 001 §1.4-1.6 and errata):
+ *   L_i = sum_j V_j (v_j - v_i) (x) g_i,   g_i = grad_i W_ij or L_corr,i grad_i W_ij (001 Eq 1.6)
+ *   d_i = sym L_i, w_i = skew L_i; stress of t_n rotated by Hughes-Winget Q sigma Q^T (or the
+ *   explicit Jaumann spin sigma + dt (w sigma - sigma w)), then the material's update with d_i
+ *   drho_i/dt = -rho_i tr L_i                                   (volume form of 001 Eq 3)
+ *   dv_i/dt = sum_j m_j (sigma_i/rho_i^2 + sigma_j/rho_j^2 + f_ij^n (R_i + R_j) - Pi_ij I) G_ij
+ *             (001 Eq 1b with the sign erratum of §1.4: -Pi_ij, since sigma is tension-positive)
+ *   de_i/dt = -sum_j m_j (sigma_i/rho_i^2 + f_ij^n R_i - Pi_ij/2 I) : (v_ij (x) G_ij)
+ *             (001 Eq 1c with errata §1.5: AV heating included, deviatoric work sigma:d/rho
+ *             without the 1/2; the pairwise split makes m.v.a + m de/dt sum to zero exactly)
+ *   G_ij = grad_i W_ij, or (L_i + L_j)/2 grad_i W_ij with correction (antisymmetric in ij).
+ * Artificial stress (Gray, Monaghan & Swift, CMAME 190 (2001) 6641, Eqs 4.8-4.11, Monaghan,
+ * JCP 159 (2000) 290): in the principal frame R'_aa = -eps sigma'_aa / rho^2 where
+ * sigma'_aa > 0, else 0, rotated back; f_ij = W(r_ij, hbar) / W(dx, hbar) with dx = hbar / h_factor
+ * (the initial spacing). The Monaghan viscosity Pi_ij is the one of the gas path (000 Eq 26). */
+
+typedef struct sph_solid_args {
+  const ej_real *x, *v, *m, *rho, *c, *h, *L, *sr2, *R;
+  ej_real *a, *e_dot, *w_dot, *mu_max, *vx;
+  const ej_off *off;
+  const ej_idx *idx;
+  ej_real alpha, beta, eta2, art_n, inv_hf, xsph;
+  int kernel, dim;
+  bool corr, art;
+} sph_solid_args;
+
+/* Velocity gradient of particle i (3x3 row-major, zero outside the dim x dim block). */
+static void sph_solid_velgrad(int kernel, int dim, const ej_real *x, const ej_real *v, const ej_real *m,
+                              const ej_real *rho, const ej_real *h, const ej_real *L, const ej_off *off,
+                              const ej_idx *idx, ej_idx i, ej_real Lv[9])
+{
+  const ej_real sigma = sph_kernel_sigma(kernel, dim);
+  for (int k = 0; k < 9; ++k) Lv[k] = 0.0;
+  const ej_real *li = L ? L + 6 * i : NULL;
+  for (ej_off k = off[i]; k < off[i + 1]; ++k) {
+    const ej_idx j = idx[k];
+    ej_real r3[3] = {0, 0, 0}, dv[3] = {0, 0, 0};
+    for (int d = 0; d < dim; ++d) r3[d] = x[3 * i + d] - x[3 * j + d], dv[d] = v[3 * j + d] - v[3 * i + d];
+    const ej_real r2 = r3[0] * r3[0] + r3[1] * r3[1] + r3[2] * r3[2];
+    const ej_real hbar = 0.5 * (h[i] + h[j]);
+    if (r2 >= 4.0 * hbar * hbar || r2 <= 0.0) continue;
+    const ej_real r = sqrt(r2), inv_h = 1.0 / hbar;
+    const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) / r;
+    ej_real g[3] = {gw * r3[0], gw * r3[1], gw * r3[2]};
+    if (li) {
+      const ej_real u0 = g[0], u1 = g[1], u2 = g[2];
+      g[0] = li[0] * u0 + li[3] * u1 + li[5] * u2;
+      g[1] = dim > 1 ? li[3] * u0 + li[1] * u1 + li[4] * u2 : 0.0;
+      g[2] = dim > 2 ? li[5] * u0 + li[4] * u1 + li[2] * u2 : 0.0;
+    }
+    const ej_real Vj = m[j] / rho[j];
+    for (int a = 0; a < dim; ++a)
+      for (int b = 0; b < dim; ++b) Lv[3 * a + b] += Vj * dv[a] * g[b];
+  }
+}
+
+/* Artificial stress tensor R of a Cauchy stress s at density rho (Gray et al. 2001 Eq 4.9-4.11):
+ * principal values by ej_s6_eig, R'_a = -eps s'_a / rho^2 for s'_a > 0. */
+static void sph_solid_art_stress(int dim, ej_real eps, const ej_real s[6], ej_real rho, ej_real R[6])
+{
+  ej_real lam[3], V[9], t[6];
+  memcpy(t, s, sizeof t);
+  if (dim < 3) t[2] = t[4] = t[5] = 0.0; /* the out-of-plane stress does not act on in-plane pairs */
+  if (dim < 2) t[1] = t[3] = 0.0;
+  ej_s6_eig(lam, V, t);
+  for (int k = 0; k < 3; ++k) lam[k] = lam[k] > 0.0 ? -eps * lam[k] / (rho * rho) : 0.0;
+  ej_s6_from_eig(R, lam, V);
+}
+
+/* Solid pass 2 (per particle, reads neighbours' x, v, rho, m, h): velocity gradient, density
+ * rate, objective rotation, the material's update, sound speed, sigma/rho^2 and R. */
+static ej_err sph_solid_stress_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
+{
+  const int dim = s->dim, kernel = s->cfg.kernel;
+  const ej_real *x = ej_set_field(set, "x"), *v = ej_set_field(set, "v"), *m = ej_set_field(set, "m");
+  const ej_real *h = ej_set_field(set, "h"), *e = ej_set_field(set, "e");
+  ej_real *rho = ej_set_field(set, "rho"), *rho_dot = ej_set_field(set, "rho_dot");
+  ej_real *p = ej_set_field(set, "p"), *c = ej_set_field(set, "c"), *stress = ej_set_field(set, "stress");
+  ej_real *d_rate = ej_set_field(set, "d_rate"), *c_mat = ej_set_field(set, "c_mat");
+  ej_real *wp_inc = ej_set_field(set, "wp_inc"), *wp_dot = ej_set_field(set, "w_plastic_dot");
+  ej_real *sr2 = ej_set_field(set, "sigma_rho2"), *R = ej_set_field(set, "art_stress");
+  const ej_real *L = s->cfg.correction ? ej_set_field(set, "L_corr") : NULL;
+  int32_t *failed = ej_set_field_int(set, "failed");
+  EJ_ENSURE(x && v && m && h && e && rho && rho_dot && p && c && stress && d_rate && c_mat && wp_inc && wp_dot &&
+                sr2 && R && failed && nbr && (!s->cfg.correction || L),
+            EJ_ERR_INTERNAL, "set '%s': sph solid fields missing", s->set_name);
+  if (r.end <= r.begin) return EJ_OK;
+  const ej_real dt = ej_set_dt(set);
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    ej_real Lv[9], W[9];
+    sph_solid_velgrad(kernel, dim, x, v, m, rho, h, L, nbr->off, nbr->idx, i, Lv);
+    ej_m3_sym(d_rate + 6 * i, Lv);
+    rho_dot[i] += -rho[i] * (Lv[0] + Lv[4] + Lv[8]);
+    if (dt > 0.0) {
+      ej_m3_skew(W, Lv);
+      ej_real *sg = stress + 6 * i;
+      if (s->cfg.stress_rate == SPH_RATE_HW) {
+        ej_real Q[9];
+        if (!ej_hughes_winget(Q, W, dt)) return sph_bad_particle(s, set, i, "Hughes-Winget spin |w| dt", ej_m3_norm(W) * dt);
+        ej_s6_rotate(sg, Q, sg);
+      } else { /* explicit Jaumann spin: sigma + dt (w sigma - sigma w) */
+        ej_real S[9], A[9], B[9], T[9];
+        ej_s6_to_m3(S, sg);
+        ej_m3_mul(A, W, S);
+        ej_m3_mul(B, S, W);
+        for (int k = 0; k < 9; ++k) T[k] = S[k] + dt * (A[k] - B[k]);
+        ej_m3_to_s6(sg, T);
+      }
+    }
+  }
+  const ej_idx n = r.end - r.begin;
+  if (dt > 0.0) {
+    ej_real *hist_base[SPH_MAX_HIST], *hist[SPH_MAX_HIST];
+    const int nh = ej_set_hist(set, hist_base, SPH_MAX_HIST);
+    for (int k = 0; k < nh; ++k) hist[k] = hist_base[k] + r.begin;
+    for (ej_idx i = r.begin; i < r.end; ++i) wp_inc[i] = 0.0;
+    ej_mat_batch b = {.n = n, .dt = dt, .rho = rho + r.begin, .e = e + r.begin, .d = d_rate + 6 * (size_t)r.begin,
+                      .F = NULL, .p = s->eos ? p + r.begin : NULL, .stress = stress + 6 * (size_t)r.begin,
+                      .hist = hist, .c = c_mat + r.begin, .w_plastic = wp_inc + r.begin,
+                      .failed = failed + r.begin};
+    EJ_TRY(ej_material_update(s->mat, &b));
+  } else { /* the initial evaluation: stress of the initial state (the EOS pressure) */
+    for (ej_idx i = r.begin; i < r.end; ++i) {
+      ej_real *sg = stress + 6 * i;
+      if (s->eos) {
+        const ej_real mean = ej_s6_trace(sg) / 3.0;
+        for (int k = 0; k < 3; ++k) sg[k] += -mean - p[i];
+      }
+      c_mat[i] = sqrt((s->K + 4.0 * s->G / 3.0) / rho[i]);
+      wp_inc[i] = 0.0;
+    }
+  }
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    ej_real *sg = stress + 6 * i;
+    if (failed[i]) { /* a failed point keeps no shear and no tension (its pressure only) */
+      const ej_real pm = -ej_s6_trace(sg) / 3.0;
+      sg[0] = sg[1] = sg[2] = pm > 0.0 ? -pm : 0.0;
+      sg[3] = sg[4] = sg[5] = 0.0;
+    }
+    for (int k = 0; k < 6; ++k)
+      if (!isfinite(sg[k])) return sph_bad_particle(s, set, i, "stress component", sg[k]);
+    p[i] = -ej_s6_trace(sg) / 3.0;
+    /* signal speed: the larger of the EOS and the material sound speeds (001 §1.7 [X]) */
+    c[i] = s->eos ? fmax(c[i], c_mat[i]) : c_mat[i];
+    if (dt > 0.0) wp_dot[i] += wp_inc[i] / dt;
+    const ej_real ir2 = 1.0 / (rho[i] * rho[i]);
+    for (int k = 0; k < 6; ++k) sr2[6 * i + k] = sg[k] * ir2;
+    if (s->cfg.art_stress) sph_solid_art_stress(dim, s->cfg.art_eps, sg, rho[i], R + 6 * i);
+    else for (int k = 0; k < 6; ++k) R[6 * i + k] = 0.0;
+  }
+  return EJ_OK;
+}
+
+/* Solid pass 3 (pairs, gather form): accelerations, energy rate, viscous work, mu_max. */
+static void sph_solid_force_rows(const sph_solid_args *A, ej_range rg)
+{
+  const int dim = A->dim, kernel = A->kernel;
+  const ej_real sigma = sph_kernel_sigma(kernel, dim);
+  const ej_real *x = A->x, *v = A->v, *m = A->m, *rho = A->rho, *c = A->c, *h = A->h;
+  for (ej_idx i = rg.begin; i < rg.end; ++i) {
+    const ej_real *si = A->sr2 + 6 * i, *Ri = A->R + 6 * i;
+    ej_real acc[3] = {0, 0, 0}, de = 0.0, dw = 0.0, mumax = 0.0, xs[3] = {0, 0, 0};
+    for (ej_off k = A->off[i]; k < A->off[i + 1]; ++k) {
+      const ej_idx j = A->idx[k];
+      ej_real r3[3] = {0, 0, 0}, v3[3] = {0, 0, 0};
+      for (int d = 0; d < dim; ++d) r3[d] = x[3 * i + d] - x[3 * j + d], v3[d] = v[3 * i + d] - v[3 * j + d];
+      const ej_real r2 = r3[0] * r3[0] + r3[1] * r3[1] + r3[2] * r3[2];
+      const ej_real hbar = 0.5 * (h[i] + h[j]);
+      if (r2 >= 4.0 * hbar * hbar) continue;
+      const ej_real r_raw = sqrt(r2), r = r_raw > 1e-12 * hbar ? r_raw : 1e-12 * hbar;
+      const ej_real inv_h = 1.0 / hbar;
+      const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) / r;
+      ej_real g[3] = {gw * r3[0], gw * r3[1], gw * r3[2]};
+      if (A->corr) {
+        const ej_real *li = A->L + 6 * i, *lj = A->L + 6 * j;
+        ej_real sL[6];
+        for (int q = 0; q < 6; ++q) sL[q] = 0.5 * (li[q] + lj[q]);
+        const ej_real u0 = g[0], u1 = g[1], u2 = g[2];
+        g[0] = sL[0] * u0 + sL[3] * u1 + sL[5] * u2;
+        g[1] = dim > 1 ? sL[3] * u0 + sL[1] * u1 + sL[4] * u2 : 0.0;
+        g[2] = dim > 2 ? sL[5] * u0 + sL[4] * u1 + sL[2] * u2 : 0.0;
+      }
+      const ej_real vr = v3[0] * r3[0] + v3[1] * r3[1] + v3[2] * r3[2];
+      const ej_real mu = vr < 0.0 ? hbar * vr / (r2 + A->eta2 * hbar * hbar) : 0.0;
+      const ej_real pi_ij = (-A->alpha * 0.5 * (c[i] + c[j]) * mu + A->beta * mu * mu) * 2.0 / (rho[i] + rho[j]);
+      mumax = -mu > mumax ? -mu : mumax;
+      const ej_real *sj = A->sr2 + 6 * j, *Rj = A->R + 6 * j;
+      ej_real fn = 0.0;
+      if (A->art) {
+        const ej_real f = sph_kernel_f(kernel, dim, r * inv_h) / sph_kernel_f(kernel, dim, A->inv_hf);
+        fn = A->art_n == 4.0 ? (f * f) * (f * f) : pow(f, A->art_n);
+      }
+      ej_real T[6], Ti[6];
+      for (int q = 0; q < 6; ++q) {
+        T[q] = si[q] + sj[q] + fn * (Ri[q] + Rj[q]);
+        Ti[q] = si[q] + fn * Ri[q];
+      }
+      for (int q = 0; q < 3; ++q) T[q] -= pi_ij, Ti[q] -= 0.5 * pi_ij;
+      ej_real Tm[9], Tim[9];
+      ej_s6_to_m3(Tm, T);
+      ej_s6_to_m3(Tim, Ti);
+      const ej_real mj = m[j];
+      for (int a = 0; a < 3; ++a) {
+        ej_real sa = 0.0, se = 0.0;
+        for (int b = 0; b < 3; ++b) sa += Tm[3 * a + b] * g[b], se += Tim[3 * a + b] * g[b];
+        acc[a] += mj * sa;
+        de -= mj * v3[a] * se;
+      }
+      dw += 0.5 * mj * pi_ij * (v3[0] * g[0] + v3[1] * g[1] + v3[2] * g[2]);
+      if (A->xsph > 0.0) { /* Monaghan, JCP 82 (1989) 1, Eq 2.6: (m_j / rhobar) (v_j - v_i) W_ij */
+        const ej_real wx = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
+        const ej_real fx = -A->xsph * mj * 2.0 / (rho[i] + rho[j]) * wx;
+        for (int d = 0; d < 3; ++d) xs[d] += fx * v3[d];
+      }
+    }
+    if (A->xsph > 0.0)
+      for (int d = 0; d < 3; ++d) A->vx[3 * i + d] = xs[d];
+    for (int d = 0; d < dim; ++d) A->a[3 * i + d] += acc[d];
+    A->e_dot[i] += de;
+    A->w_dot[i] += dw;
+    A->mu_max[i] = mumax;
+  }
+}
+
+static ej_err sph_solid_force_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
+{
+  sph_solid_args A = {.x = ej_set_field(set, "x"), .v = ej_set_field(set, "v"), .m = ej_set_field(set, "m"),
+                      .rho = ej_set_field(set, "rho"), .c = ej_set_field(set, "c"), .h = ej_set_field(set, "h"),
+                      .L = ej_set_field(set, "L_corr"), .sr2 = ej_set_field(set, "sigma_rho2"),
+                      .R = ej_set_field(set, "art_stress"), .a = ej_set_field(set, "a"),
+                      .e_dot = ej_set_field(set, "e_dot"), .w_dot = ej_set_field(set, "w_visc_dot"),
+                      .mu_max = ej_set_field(set, "mu_max"), .off = nbr ? nbr->off : NULL,
+                      .idx = nbr ? nbr->idx : NULL, .alpha = s->cfg.alpha, .beta = s->cfg.beta,
+                      .eta2 = s->cfg.eta * s->cfg.eta, .art_n = s->cfg.art_n, .inv_hf = 1.0 / s->cfg.h_factor,
+                      .kernel = s->cfg.kernel, .dim = s->dim, .corr = s->cfg.correction,
+                      .art = s->cfg.art_stress, .vx = ej_set_field(set, "v_xsph"), .xsph = s->cfg.xsph};
+  EJ_ENSURE(A.x && A.v && A.m && A.rho && A.c && A.h && A.sr2 && A.R && A.a && A.e_dot && A.w_dot && A.mu_max &&
+                A.off && (!A.corr || A.L),
+            EJ_ERR_INTERNAL, "set '%s': sph solid fields missing", s->set_name);
+  EJ_ENSURE(A.vx, EJ_ERR_INTERNAL, "set '%s': sph field v_xsph missing", s->set_name);
+  sph_solid_force_rows(&A, r);
+  return EJ_OK;
+}
+
+/* XSPH (xsph > 0, strength only): the positions move by dt v_xsph after the integrator's step
+ * (the neighbour skin check sees the moved x); velocities, momentum and energy are untouched. */
+static ej_err sph_post_step(void *state, ej_set *set, ej_range r)
+{
+  const sph_state *s = state;
+  if (!s->cfg.strength || !(s->cfg.xsph > 0.0)) return EJ_OK;
+  ej_real *x = ej_set_field(set, "x");
+  const ej_real *vx = ej_set_field(set, "v_xsph");
+  EJ_ENSURE(x && vx, EJ_ERR_INTERNAL, "set '%s': sph XSPH fields missing", s->set_name);
+  const ej_real dt = ej_set_dt(set);
+  for (ej_idx i = r.begin; i < r.end; ++i)
+    for (int d = 0; d < s->dim; ++d) x[3 * i + d] += dt * vx[3 * i + d];
+  return EJ_OK;
+}
+
 static ej_err sph_counters(void *state, ej_counter *out, int max, int *n)
 {
   const sph_state *s = state;
@@ -1009,12 +1345,24 @@ static int sph_logical_pass(const sph_config *cfg, int pass)
 static int sph_pass_count(const void *state)
 {
   const sph_state *s = state;
+  if (s->cfg.strength) return 3 + (s->cfg.correction ? 1 : 0); /* particle, [L_corr], stress, forces */
   return 2 + (sph_has_matrix_pass(&s->cfg) ? 1 : 0) + (s->cfg.density == SPH_DENS_SUMMATION ? 1 : 0);
 }
 
 static ej_err sph_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass, ej_range r)
 {
   const sph_state *s = state;
+  if (s->cfg.strength) {
+    const int lp = (!s->cfg.correction && pass >= 1) ? pass + 1 : pass;
+    switch (lp) {
+    case 0: EJ_TRY(sph_particle_pass(s, set, r)); break;
+    case 1: EJ_TRY(sph_corr_pass(s, set, nbr, r)); break;
+    case 2: EJ_TRY(sph_solid_stress_pass(s, set, nbr, r)); break;
+    case 3: EJ_TRY(sph_solid_force_pass(s, set, nbr, r)); break;
+    default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: pass %d of %d", pass, sph_pass_count(s));
+    }
+    return EJ_OK;
+  }
   switch (sph_logical_pass(&s->cfg, pass)) {
   case 0: EJ_TRY(sph_sum_pass(s, set, nbr, r)); break;
   case 1: EJ_TRY(sph_particle_pass(s, set, r)); break;
@@ -1044,9 +1392,13 @@ static ej_err sph_stable_dt(void *state, const ej_set *set, ej_range r, ej_real 
   const ej_real *restrict a = ej_set_field(set, "a");
   EJ_ENSURE(h && c && mu && a, EJ_ERR_INTERNAL, "set '%s': sph fields missing", s->set_name);
   const ej_real alpha = s->cfg.alpha, beta = s->cfg.beta;
+  /* solids: the particle speed joins the signal speed (001 §1.11, with its erratum: the EOS or
+   * material sound speed, whichever is larger, instead of sqrt(E/rho)) */
+  const ej_real *restrict v = s->cfg.strength ? ej_set_field(set, "v") : NULL;
   ej_real best = HUGE_VAL;
   for (ej_idx i = r.begin; i < r.end; ++i) {
-    const ej_real sig = c[i] + 1.2 * (alpha * c[i] + beta * mu[i]);
+    const ej_real vi = v ? sqrt(v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]) : 0.0;
+    const ej_real sig = c[i] + vi + 1.2 * (alpha * c[i] + beta * mu[i]);
     if (sig > 0.0) best = fmin(best, h[i] / sig);
     const ej_real a2 = a[3 * i] * a[3 * i] + a[3 * i + 1] * a[3 * i + 1] + a[3 * i + 2] * a[3 * i + 2];
     if (a2 > 0.0) best = fmin(best, sqrt(h[i] / sqrt(a2)));
@@ -1060,6 +1412,10 @@ static ej_err sph_stable_dt(void *state, const ej_set *set, ej_range r, ej_real 
 static ej_err sph_check_config(const void *config, ej_diag *diag)
 {
   const sph_config *cfg = config;
+  if (cfg->strength && cfg->gradient == SPH_GRAD_SHAPE)
+    return ej_diag_error(diag, "gradient", "strength: true supports gradient: kernel only (with optional correction)");
+  if (cfg->strength && cfg->density == SPH_DENS_SUMMATION)
+    return ej_diag_error(diag, "density", "strength: true supports density: continuity only");
   if (cfg->gradient == SPH_GRAD_SHAPE && cfg->correction)
     return ej_diag_error(diag, "correction",
                          "correction applies to the kernel gradient only; gradient: shape_tensor is already "
@@ -1070,7 +1426,7 @@ static ej_err sph_check_config(const void *config, ej_diag *diag)
 static const ej_method_ops sph_ops = {
     .struct_size = sizeof(ej_method_ops),
     .name = "sph",
-    .summary = "Standard SPH gas dynamics: continuity density, Monaghan artificial viscosity",
+    .summary = "Standard SPH: gas dynamics (continuity density, Monaghan viscosity) and solids (strength: true)",
     .doc = "Compressible SPH in the standard symmetric form (Fan & Li, digest 000 Eqs 22-28, with the Eq 24 "
            "sign erratum): density by the continuity equation (by default in the volume form, renormalised "
            "so that uniform compression is exact), pressure from the material's EOS, Monaghan viscosity, "
@@ -1078,8 +1434,9 @@ static const ej_method_ops sph_ops = {
            "optional conservative kernel gradient correction, optional summation density, and the "
            "consistent SPH of digest 000 Eqs 29-37 (gradient: shape_tensor, current shape tensor, with a "
            "counted fallback to the kernel gradient where it is ill-conditioned). Energy and momentum are "
-           "conserved to round-off by the semi-discrete equations (not by shape_form: paper). Needs an EOS; "
-           "no strength model.",
+           "conserved to round-off by the semi-discrete equations (not by shape_form: paper). Needs an EOS, "
+           "or with strength: true a strength model: then the Libersky-Petschek solid form (material stress "
+           "rotated by Hughes-Winget or Jaumann, Monaghan/Gray artificial stress, optional XSPH).",
     .params = sph_params,
     .config_size = sizeof(sph_config),
     .check_config = sph_check_config,
@@ -1090,7 +1447,7 @@ static const ej_method_ops sph_ops = {
     .n_passes = 4,
     .compute = sph_compute,
     .stable_dt = sph_stable_dt,
-    .post_step = NULL,
+    .post_step = sph_post_step,
     .counters = sph_counters,
     .pass_count = sph_pass_count,
     .destroy = sph_destroy,

@@ -1,0 +1,384 @@
+/* sph with a strength model (strength: true): a uniform strain rate gives the material's own
+ * stress path (von Mises with hardening, through yield), a rigid rotation only rotates the
+ * stress (Hughes-Winget exactly, Jaumann to O(dt^2)), momentum and total energy rates vanish to
+ * round-off on a jittered, pre-stressed block (with and without artificial stress and gradient
+ * correction), the artificial stress acts in tension only, and the configuration checks. */
+#include "validation_common.h"
+#include "ejecta/tensor.h"
+
+const ej_plugin_info *ej_plugin_elastic_info(void);
+const ej_plugin_info *ej_plugin_von_mises_info(void);
+
+static uint64_t rng_next(uint64_t *s)
+{ /* splitmix64 */
+  uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+static double rng_uniform(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53; }
+
+typedef struct sfix {
+  ej_registry *reg;
+  const ej_method_ops *mops;
+  const ej_material_ops *matops;
+  void *mcfg, *matcfg, *mstate, *matstate;
+  struct ej_material mat;
+  struct ej_model model;
+  ej_set *set;
+  ej_nbrlist *list;
+  ej_real *hist_store[4];
+  int dim;
+  ej_real t, dt;
+} sfix;
+
+static const ej_param *find_param(const ej_param *t, const char *name)
+{
+  for (; t && t->name; ++t)
+    if (!strcmp(t->name, name)) return t;
+  ck_abort_msg("no parameter '%s'", name);
+  return NULL;
+}
+static void *param_ptr(const ej_param *t, void *cfg, const char *name)
+{
+  return (char *)cfg + find_param(t, name)->offset;
+}
+
+/* sph (strength: true) with `material` ("elastic" E 200 GPa nu 0.3 or "von_mises" with
+ * sigma_y 250 MPa, H 2 GPa), no EOS. */
+static void fix_open(sfix *f, int dim, ej_idx n, const char *material, bool correction, bool art)
+{
+  memset(f, 0, sizeof *f);
+  f->dim = dim;
+  ck_assert_int_eq(ej_registry_create(&f->reg), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(f->reg, ej_plugin_sph_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(f->reg, ej_plugin_elastic_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(f->reg, ej_plugin_von_mises_info()), EJ_OK);
+  const void *ops;
+  ck_assert_int_eq(ej_registry_require(f->reg, EJ_KIND_METHOD, "sph", NULL, &ops), EJ_OK);
+  f->mops = ops;
+  f->mcfg = ej_calloc(1, f->mops->config_size);
+  ck_assert_int_eq(ej_params_defaults(f->mops->params, f->mcfg), EJ_OK);
+  *(bool *)param_ptr(f->mops->params, f->mcfg, "strength") = true;
+  *(bool *)param_ptr(f->mops->params, f->mcfg, "correction") = correction;
+  *(bool *)param_ptr(f->mops->params, f->mcfg, "art_stress") = art;
+  ck_assert_int_eq(ej_registry_require(f->reg, EJ_KIND_MATERIAL, material, NULL, &ops), EJ_OK);
+  f->matops = ops;
+  f->matcfg = ej_calloc(1, f->matops->config_size);
+  ck_assert_int_eq(ej_params_defaults(f->matops->params, f->matcfg), EJ_OK);
+  *(ej_real *)param_ptr(f->matops->params, f->matcfg, "E") = 200e9;
+  *(ej_real *)param_ptr(f->matops->params, f->matcfg, "nu") = 0.3;
+  if (!strcmp(material, "von_mises")) {
+    *(ej_real *)param_ptr(f->matops->params, f->matcfg, "yield_stress") = 250e6;
+    *(ej_real *)param_ptr(f->matops->params, f->matcfg, "H") = 2e9;
+  }
+  ck_assert_int_eq(f->matops->create(f->matcfg, &f->matstate), EJ_OK);
+  f->mat = (struct ej_material){.ops = f->matops, .state = f->matstate};
+  f->model = (struct ej_model){.name = "steel", .rho0 = 7800.0, .eos = NULL, .mat = &f->mat};
+  ck_assert_int_eq(ej_set_create("solid", 0, dim, &f->set), EJ_OK);
+  f->set->t = &f->t;
+  f->set->dt = &f->dt;
+  f->set->model = &f->model;
+  ck_assert_int_eq(ej_decl_probe(f->mops, f->mcfg, f->set), EJ_OK);
+  for (int k = 0; k < f->matops->n_hist; ++k) {
+    const ej_field_decl hd = {.name = f->matops->hist_names[k], .kind = EJ_SCALAR, .flags = 0, .unit = "1", .doc = "h"};
+    ck_assert_int_eq(ej_set_add_field(f->set, &hd, &f->set->f_hist[k]), EJ_OK);
+    f->set->n_hist = k + 1;
+  }
+  const char *want[] = {"stress", "w_plastic", "failed", "sigma_rho2", "art_stress"};
+  for (size_t k = 0; k < sizeof want / sizeof want[0]; ++k)
+    ck_assert_msg(ej_set_find_field(f->set, want[k]) >= 0, "field '%s' not declared", want[k]);
+  ck_assert_int_eq(f->set->fields[ej_set_find_field(f->set, "stress")].kind, EJ_SYM6);
+  ck_assert_int_eq(ej_set_reserve(f->set, n), EJ_OK);
+  f->set->n = n;
+  f->set->n_ghost = 0;
+  int32_t *id = ej_set_field_int(f->set, "id");
+  for (ej_idx i = 0; i < n; ++i) id[i] = (int32_t)i;
+  ck_assert_int_eq(ej_nbrlist_create(&f->list), EJ_OK);
+}
+
+static void fix_list(sfix *f)
+{
+  const ej_idx n = ej_set_count(f->set);
+  ck_assert_int_eq(f->mops->support(f->mstate, f->set, (ej_range){0, n}, f->set->radius), EJ_OK);
+  const ej_real *x = ej_set_field(f->set, "x");
+  ck_assert_int_eq(ej_nbrlist_build(f->list, f->dim, x, f->set->radius, n, x, f->set->radius, n, 0.0, true), EJ_OK);
+}
+
+static void fix_start(sfix *f)
+{
+  ck_assert_int_eq(f->mops->create(f->mcfg, f->set, &f->model, &f->mstate), EJ_OK);
+  ck_assert_int_eq(f->mops->setup(f->mstate, f->set), EJ_OK);
+  fix_list(f);
+}
+
+/* Zero a and rates, then every pass in two ranges. */
+static void fix_compute(sfix *f)
+{
+  const ej_idx n = ej_set_count(f->set);
+  const char *zero[] = {"a", "rho_dot", "e_dot", "w_visc_dot", "w_plastic_dot"};
+  for (int k = 0; k < 5; ++k) memset(ej_set_field(f->set, zero[k]), 0, (size_t)n * (k ? 1 : 3) * sizeof(ej_real));
+  const ej_range halves[2] = {{0, n / 2}, {n / 2, n}};
+  const int np = f->mops->pass_count(f->mstate);
+  for (int pass = 0; pass < np; ++pass)
+    for (int h = 0; h < 2; ++h)
+      ck_assert_int_eq(f->mops->compute(f->mstate, f->set, &f->list->pub, pass, halves[h]), EJ_OK);
+}
+
+static void fix_close(sfix *f)
+{
+  if (f->mstate) f->mops->destroy(f->mstate);
+  ej_nbrlist_destroy(f->list);
+  ej_set_destroy(f->set);
+  if (f->matstate) f->matops->destroy(f->matstate);
+  ej_free(f->mcfg);
+  ej_free(f->matcfg);
+  ej_registry_destroy(f->reg);
+}
+
+/* side^dim particles on a lattice of spacing dx centred on 0, optional jitter (fraction of dx). */
+static ej_idx lattice(sfix *f, int dim, int side, ej_real dx, ej_real jitter, uint64_t seed, const char *material,
+                      bool correction, bool art)
+{
+  ej_idx n = 1;
+  for (int d = 0; d < dim; ++d) n *= side;
+  fix_open(f, dim, n, material, correction, art);
+  ej_real *x = ej_set_field(f->set, "x"), *m = ej_set_field(f->set, "m"), *vol0 = ej_set_field(f->set, "vol0");
+  ej_real *r = ej_set_field(f->set, "rho");
+  const ej_real vol = pow(dx, dim), half = 0.5 * (side - 1);
+  for (ej_idx i = 0; i < n; ++i) {
+    ej_idx k = i;
+    for (int d = 0; d < 3; ++d) {
+      x[3 * i + d] = d < dim ? ((ej_real)(k % side) - half + jitter * (rng_uniform(&seed) - 0.5)) * dx : 0.0;
+      if (d < dim) k /= side;
+    }
+    vol0[i] = vol;
+    m[i] = 7800.0 * vol;
+    r[i] = 7800.0;
+  }
+  return n;
+}
+
+static bool interior(const ej_real *x, ej_idx i, int dim, ej_real lim)
+{
+  for (int d = 0; d < dim; ++d)
+    if (fabs(x[3 * i + d]) > lim) return false;
+  return true;
+}
+
+/* Uniform strain rate (symmetric, no spin), particles held in place: the stress of every
+ * interior particle follows the material's own path step by step, through yield. */
+START_TEST(test_stress_path)
+{
+  const ej_real dx = 1e-3;
+  sfix f;
+  const ej_idx n = lattice(&f, 3, 11, dx, 0.2, 7u, "von_mises", true, true);
+  ej_real *x = ej_set_field(f.set, "x"), *v = ej_set_field(f.set, "v");
+  const ej_real A[9] = {100.0, 30.0, -20.0, 30.0, -50.0, 40.0, -20.0, 40.0, 70.0}; /* 1/s, symmetric */
+  for (ej_idx i = 0; i < n; ++i) ej_m3_apply(v + 3 * i, A, x + 3 * i);
+  fix_start(&f);
+  f.dt = 2e-6;
+  /* the reference point: the material alone */
+  ej_real d6[6], sref[6] = {0, 0, 0, 0, 0, 0}, hst = 0.0, cref = 0.0, wp = 0.0, rho = 7800.0, e = 0.0;
+  ej_real *hp[1] = {&hst};
+  int32_t fl = 0;
+  ej_m3_sym(d6, A);
+  const ej_real *sg = ej_set_field(f.set, "stress");
+  const ej_real *eps_p = ej_set_field(f.set, "eps_p");
+  ck_assert_ptr_nonnull(eps_p);
+  int checked = 0;
+  for (int step = 0; step < 40; ++step) {
+    fix_compute(&f);
+    ej_mat_batch b = {.n = 1, .dt = f.dt, .rho = &rho, .e = &e, .d = d6, .p = NULL, .stress = sref, .hist = hp,
+                      .c = &cref, .w_plastic = &wp, .failed = &fl};
+    ck_assert_int_eq(f.matops->update(f.matstate, &b), EJ_OK);
+    checked = 0;
+    for (ej_idx i = 0; i < n; ++i) {
+      if (!interior(x, i, 3, 2.5 * dx)) continue; /* 3 spacings from the surface: full support */
+      for (int k = 0; k < 6; ++k)
+        ck_assert_msg(fabs(sg[6 * i + k] - sref[k]) < 1e-7 * 250e6, "step %d particle %d: stress[%d] %.10g vs %.10g",
+                      step, (int)i, k, sg[6 * i + k], sref[k]);
+      ck_assert_double_eq_tol(eps_p[i], hst, 1e-9);
+      ++checked;
+    }
+  }
+  ck_assert_int_gt(checked, 0);
+  ck_assert_msg(hst > 1e-4, "the path should have yielded (eps_p %g)", hst);
+  fix_close(&f);
+}
+END_TEST
+
+/* Rigid spin about z of a pre-stressed block: d = 0, the stress is carried by exactly the
+ * Hughes-Winget rotation (and by Jaumann to O(dt^2)); no internal energy change. */
+static void check_spin(int rate, ej_real jitter, bool corr)
+{
+  const ej_real dx = 1e-3;
+  sfix f;
+  const ej_idx n = lattice(&f, 3, 11, dx, jitter, 11u, "elastic", corr, false);
+  *(int *)param_ptr(f.mops->params, f.mcfg, "stress_rate") = rate;
+  ej_real *x = ej_set_field(f.set, "x"), *v = ej_set_field(f.set, "v");
+  const ej_real om = 200.0;
+  const ej_real Wm[9] = {0, -om, 0, om, 0, 0, 0, 0, 0};
+  for (ej_idx i = 0; i < n; ++i) ej_m3_apply(v + 3 * i, Wm, x + 3 * i);
+  fix_start(&f);
+  ej_real *sg = ej_set_field(f.set, "stress");
+  const ej_real s0[6] = {-1e8, 2e7, 3e7, 4e7, 0, -1e7};
+  for (ej_idx i = 0; i < n; ++i) memcpy(sg + 6 * i, s0, sizeof s0);
+  f.dt = 1e-4; /* om dt = 0.02 */
+  fix_compute(&f);
+  const ej_real *edot = ej_set_field(f.set, "e_dot");
+  ej_real Q[9], want[6];
+  ck_assert(ej_hughes_winget(Q, Wm, f.dt));
+  ej_s6_rotate(want, Q, s0);
+  int checked = 0;
+  for (ej_idx i = 0; i < n; ++i) {
+    if (!interior(x, i, 3, 2.5 * dx)) continue;
+    const ej_real tol = rate == 0 ? 1e-6 * 1e8 : 1e-3 * 1e8; /* Jaumann: O((om dt)^2) = 4e-4 */
+    /* without correction the lattice sum scales the spin by ~1.0065: invariants only */
+    for (int k = 0; k < 6 && corr; ++k)
+      ck_assert_msg(fabs(sg[6 * i + k] - want[k]) < tol, "rate %d: stress[%d] %.10g vs %.10g", rate, k, sg[6 * i + k],
+                    want[k]);
+    ck_assert_double_eq_tol(ej_s6_trace(sg + 6 * i), ej_s6_trace(s0), 1e-6 * 1e8);
+    if (rate == 0) ck_assert_double_eq_tol(ej_s6_sqrt_j2(sg + 6 * i), ej_s6_sqrt_j2(s0), 1e-6 * 1e8);
+    /* sigma : (sum_j v_ij (x) G_ij) vanishes exactly only where that sum is skew: on the regular
+     * lattice with an isotropic support (|x| <= 2 dx); on the jittered block it is a
+     * discretisation error (measured 2.6 % of |sigma| om / rho), not checked here. */
+    if (jitter == 0.0 && interior(x, i, 3, 2.01 * dx))
+      ck_assert_msg(fabs(edot[i]) < 1e-9 * 1e8 * om / 7800.0, "spin: e_dot %g", edot[i]);
+    ++checked;
+  }
+  ck_assert_int_gt(checked, 0);
+  fix_close(&f);
+}
+
+START_TEST(test_objectivity)
+{
+  check_spin(0, 0.2, true);
+  check_spin(1, 0.2, true);
+  check_spin(0, 0.0, false);
+}
+END_TEST
+
+/* Jittered, randomly moving, randomly pre-stressed block: sum m a = 0 and
+ * sum m (v.a + de/dt) = 0 to round-off; viscous work >= 0. */
+static void check_conservation(int dim, bool corr, bool art)
+{
+  const ej_real dx = 1e-3;
+  const int side = dim == 3 ? 8 : dim == 2 ? 16 : 40;
+  sfix f;
+  const ej_idx n = lattice(&f, dim, side, dx, 0.4, 99u + (uint64_t)dim, "elastic", corr, art);
+  *(ej_real *)param_ptr(f.mops->params, f.mcfg, "xsph") = 0.5;
+  uint64_t seed = 5u;
+  ej_real *v = ej_set_field(f.set, "v"), *m = ej_set_field(f.set, "m");
+  for (ej_idx i = 0; i < n; ++i)
+    for (int d = 0; d < dim; ++d) v[3 * i + d] = 20.0 * (rng_uniform(&seed) - 0.5);
+  fix_start(&f);
+  ej_real *sg = ej_set_field(f.set, "stress");
+  for (ej_idx i = 0; i < n; ++i)
+    for (int k = 0; k < 6; ++k) sg[6 * i + k] = 2e8 * (rng_uniform(&seed) - 0.4);
+  f.dt = 1e-8;
+  fix_compute(&f);
+  const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
+  const ej_real *wdot = ej_set_field(f.set, "w_visc_dot"), *R = ej_set_field(f.set, "art_stress");
+  double P[3] = {0, 0, 0}, Pabs = 0, E = 0, Eabs = 0, W = 0, Rabs = 0;
+  for (ej_idx i = 0; i < n; ++i) {
+    for (int d = 0; d < 3; ++d) {
+      P[d] += m[i] * a[3 * i + d];
+      Pabs += fabs(m[i] * a[3 * i + d]);
+      E += m[i] * v[3 * i + d] * a[3 * i + d];
+      Eabs += fabs(m[i] * v[3 * i + d] * a[3 * i + d]);
+    }
+    E += m[i] * edot[i];
+    Eabs += fabs(m[i] * edot[i]);
+    W += m[i] * wdot[i];
+    for (int k = 0; k < 6; ++k) Rabs += fabs(R[6 * i + k]);
+  }
+  ck_assert(Pabs > 0 && Eabs > 0);
+  for (int d = 0; d < 3; ++d)
+    ck_assert_msg(fabs(P[d]) < 1e-13 * Pabs, "dim %d corr %d art %d: momentum rate %g (scale %g)", dim, corr, art,
+                  P[d], Pabs);
+  ck_assert_msg(fabs(E) < 1e-12 * Eabs, "dim %d corr %d art %d: energy rate %g (scale %g)", dim, corr, art, E, Eabs);
+  ck_assert_msg(W >= 0.0, "viscous work %g", W);
+  /* XSPH: the pair terms are antisymmetric, so sum m_i v_xsph_i = 0 (the centre of mass does not drift) */
+  const ej_real *vx = ej_set_field(f.set, "v_xsph");
+  double X[3] = {0, 0, 0}, Xabs = 0;
+  for (ej_idx i = 0; i < n; ++i)
+    for (int d = 0; d < 3; ++d) X[d] += m[i] * vx[3 * i + d], Xabs += fabs(m[i] * vx[3 * i + d]);
+  ck_assert(Xabs > 0);
+  for (int d = 0; d < 3; ++d) ck_assert_msg(fabs(X[d]) < 1e-13 * Xabs, "XSPH momentum %g (scale %g)", X[d], Xabs);
+  ck_assert_msg(art ? Rabs > 0.0 : Rabs == 0.0, "artificial stress sum %g (art %d)", Rabs, art);
+  fix_close(&f);
+}
+
+START_TEST(test_conservation)
+{
+  for (int dim = 1; dim <= 3; ++dim) {
+    check_conservation(dim, false, true);
+    check_conservation(dim, true, true);
+    check_conservation(dim, false, false);
+  }
+}
+END_TEST
+
+/* Artificial stress: principal tension gives R = -eps sigma/rho^2 along it, compression none. */
+START_TEST(test_art_stress_tension_only)
+{
+  const ej_real dx = 1e-3;
+  sfix f;
+  const ej_idx n = lattice(&f, 2, 12, dx, 0.0, 1u, "elastic", false, true);
+  fix_start(&f);
+  ej_real *sg = ej_set_field(f.set, "stress");
+  /* principal stresses +1e8 along (1,1)/sqrt2 and -2e8 along (1,-1)/sqrt2 */
+  for (ej_idx i = 0; i < n; ++i) {
+    const ej_real s[6] = {-0.5e8, -0.5e8, 0.0, 1.5e8, 0.0, 0.0};
+    memcpy(sg + 6 * i, s, sizeof s);
+  }
+  f.dt = 1e-12; /* the elastic increment is negligible */
+  fix_compute(&f);
+  const ej_real *R = ej_set_field(f.set, "art_stress"), *rho = ej_set_field(f.set, "rho");
+  for (ej_idx i = 0; i < n; ++i) {
+    const ej_real want = -0.3 * 1e8 / (rho[i] * rho[i]) * 0.5; /* -eps s1/rho^2 n (x) n, n = (1,1)/sqrt2 */
+    ck_assert_double_eq_tol(R[6 * i + 0], want, 1e-6 * fabs(want));
+    ck_assert_double_eq_tol(R[6 * i + 1], want, 1e-6 * fabs(want));
+    ck_assert_double_eq_tol(R[6 * i + 3], want, 1e-6 * fabs(want));
+    ck_assert_double_eq_tol(R[6 * i + 2], 0.0, 1e-12 * fabs(want));
+  }
+  fix_close(&f);
+}
+END_TEST
+
+/* strength: true needs a strength model, and a strength model needs strength: true. */
+START_TEST(test_config)
+{
+  sfix f;
+  lattice(&f, 2, 4, 1e-3, 0.0, 1u, "elastic", false, true);
+  *(bool *)param_ptr(f.mops->params, f.mcfg, "strength") = false;
+  void *st = NULL;
+  ck_assert_int_ne(f.mops->create(f.mcfg, f.set, &f.model, &st), EJ_OK);
+  ej_error_clear();
+  *(bool *)param_ptr(f.mops->params, f.mcfg, "strength") = true;
+  struct ej_model nomat = f.model;
+  nomat.mat = NULL;
+  ck_assert_int_ne(f.mops->create(f.mcfg, f.set, &nomat, &st), EJ_OK);
+  ej_error_clear();
+  fix_close(&f);
+}
+END_TEST
+
+int main(void)
+{
+  Suite *s = suite_create("sph_solid");
+  TCase *tm = tcase_create("solid");
+  tcase_set_timeout(tm, 60);
+  tcase_add_test(tm, test_stress_path);
+  tcase_add_test(tm, test_objectivity);
+  tcase_add_test(tm, test_conservation);
+  tcase_add_test(tm, test_art_stress_tension_only);
+  tcase_add_test(tm, test_config);
+  suite_add_tcase(s, tm);
+  SRunner *sr = srunner_create(s);
+  srunner_run_all(sr, CK_NORMAL);
+  int failed = srunner_ntests_failed(sr);
+  srunner_free(sr);
+  return failed ? EXIT_FAILURE : EXIT_SUCCESS;
+}
