@@ -7,7 +7,8 @@
 Definitions (Bergeron et al. 1998 as used by Fan & Li, 000 Fig. 18; the thresholds are ejecta's
 choice, stated here): the ground surface z_s is the highest initial position of the soil set; a
 soil particle belongs to the bubble when it is higher than z_s + dx/2 (dx the initial spacing of
-the surface layer). Bubble height = max z over the bubble - z_s. Bubble width = twice the largest
+the surface layer). Bubble height = max z over the bubble particles within 2 dx of the charge
+axis - z_s. Bubble width = twice the largest
 distance from the charge axis among bubble particles whose height is below half the bubble height
 (the width of the dome at its base half). The scene's charge axis is the z axis through x = y = 0
 (a quarter model with symmetry planes x = 0 and y = 0).
@@ -44,7 +45,11 @@ def measure(x, z_s, dx):
     up = x[:, 2] > z_s + 0.5 * dx
     if not up.any():
         return 0.0, 0.0
-    height = float(x[up, 2].max() - z_s)
+    # height on the charge axis (within 2 spacings of it), so that a single fast fragment off
+    # the axis does not count as the dome
+    r_all = np.sqrt(x[:, 0] ** 2 + x[:, 1] ** 2)
+    axis = up & (r_all < 2.0 * dx)
+    height = float(x[axis, 2].max() - z_s) if axis.any() else 0.0
     low = up & (x[:, 2] - z_s <= 0.5 * height)
     r = np.sqrt(x[low, 0] ** 2 + x[low, 1] ** 2) if low.any() else np.array([0.0])
     return height, 2.0 * float(r.max())
