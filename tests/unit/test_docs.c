@@ -37,7 +37,7 @@ static void list_md(const char *dir, char *out, size_t cap)
   int n = 0;
   for (struct dirent *e; (e = readdir(d)) && n < 256;) {
     size_t l = strlen(e->d_name);
-    if (l > 3 && l < 128 && !strcmp(e->d_name + l - 3, ".md")) snprintf(names[n++], 128, "%s", e->d_name);
+    if (l > 3 && l < 128 && !strcmp(e->d_name + l - 3, ".md")) memcpy(names[n++], e->d_name, l + 1);
   }
   closedir(d);
   qsort(names, (size_t)n, sizeof names[0], (int (*)(const void *, const void *))strcmp);
