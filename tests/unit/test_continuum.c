@@ -18,45 +18,22 @@
 
 const ej_plugin_info *ej_plugin_continuum_info(void);
 
-typedef struct crun {
-  char dir[64], scene[128], out[128];
-  vrun r;
-} crun;
+typedef vscene crun;
 
+/* Loads, creates and runs the printf-formatted scene with sph, ideal_gas and continuum. */
 static void crun_go(crun *c, const char *text_fmt, ...)
 {
-  memset(c, 0, sizeof *c);
-  vrun_dir(c->dir, sizeof c->dir, "cont");
-  snprintf(c->scene, sizeof c->scene, "%s/s.yaml", c->dir);
-  snprintf(c->out, sizeof c->out, "%s/out.h5", c->dir);
-  FILE *f = fopen(c->scene, "w");
-  ck_assert_ptr_nonnull(f);
+  const ej_plugin_info *p[] = {ej_plugin_sph_info(), ej_plugin_ideal_gas_info(), ej_plugin_continuum_info()};
   va_list ap;
   va_start(ap, text_fmt);
-  vfprintf(f, text_fmt, ap);
+  ej_err rc = vscene_open(c, "cont", p, 3, text_fmt, ap);
   va_end(ap);
-  fclose(f);
-  memset(&c->r, 0, sizeof c->r);
-  ck_assert_int_eq(ej_registry_create(&c->r.reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(c->r.reg, ej_plugin_sph_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(c->r.reg, ej_plugin_ideal_gas_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(c->r.reg, ej_plugin_continuum_info()), EJ_OK);
-  ej_err rc = ej_scene_load(c->scene, c->r.reg, &c->r.scene);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  ej_run_opts o = {.threads = 1, .output = c->out};
-  rc = ej_sim_create(c->r.scene, c->r.reg, &o, &c->r.sim);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
   vrun_run(&c->r);
 }
 
-static void crun_free(crun *c)
-{
-  vrun_free(&c->r);
-  const char *names[] = {"s.yaml", "out.h5", "out.xdmf"};
-  vrun_cleanup(c->dir, names, 3);
-}
+static void crun_free(crun *c) { vscene_free(c); }
 
 /* Two ideal gases (gamma 1.4) at p = 1, densities 1 and rho_r, in contact at x = 0, in two
  * coupled sets ("two") or one set with a region-wise initial density ("one"). */

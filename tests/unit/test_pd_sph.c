@@ -19,40 +19,21 @@ const ej_plugin_info *ej_plugin_tlpd_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
 const ej_plugin_info *ej_plugin_polynomial_info(void);
 
-typedef struct prun {
-  char dir[64], scene[128], out[128];
-  vrun r;
-} prun;
+typedef vscene prun;
 
+/* Loads the printf-formatted scene with the coupling's plugins and creates its sim. */
 static ej_err prun_try(prun *c, const char *fmt, ...)
 {
-  memset(c, 0, sizeof *c);
-  vrun_dir(c->dir, sizeof c->dir, "pdsph");
-  snprintf(c->scene, sizeof c->scene, "%s/s.yaml", c->dir);
-  snprintf(c->out, sizeof c->out, "%s/out.h5", c->dir);
-  FILE *f = fopen(c->scene, "w");
-  ck_assert_ptr_nonnull(f);
+  const ej_plugin_info *p[] = {ej_plugin_sph_info(),    ej_plugin_ideal_gas_info(), ej_plugin_pd_sph_info(),
+                               ej_plugin_tlpd_info(),   ej_plugin_elastic_info(),   ej_plugin_polynomial_info()};
   va_list ap;
   va_start(ap, fmt);
-  vfprintf(f, fmt, ap);
+  ej_err rc = vscene_open(c, "pdsph", p, 6, fmt, ap);
   va_end(ap);
-  fclose(f);
-  ck_assert_int_eq(ej_registry_create(&c->r.reg), EJ_OK);
-  const ej_plugin_info *p[] = {ej_plugin_sph_info(), ej_plugin_ideal_gas_info(), ej_plugin_pd_sph_info(),
-                               ej_plugin_tlpd_info(), ej_plugin_elastic_info(), ej_plugin_polynomial_info()};
-  for (size_t k = 0; k < sizeof p / sizeof p[0]; ++k) ck_assert_int_eq(ej_registry_add_static(c->r.reg, p[k]), EJ_OK);
-  ej_err rc = ej_scene_load(c->scene, c->r.reg, &c->r.scene);
-  if (rc != EJ_OK) return rc;
-  ej_run_opts o = {.threads = 1, .output = c->out};
-  return ej_sim_create(c->r.scene, c->r.reg, &o, &c->r.sim);
+  return rc;
 }
 
-static void prun_free(prun *c)
-{
-  vrun_free(&c->r);
-  const char *names[] = {"s.yaml", "out.h5", "out.xdmf"};
-  vrun_cleanup(c->dir, names, 3);
-}
+static void prun_free(prun *c) { vscene_free(c); }
 
 /* A 2D elastic PD block hit by a moving fluid block; no boundaries. */
 static const char scene_free[] =

@@ -6,6 +6,7 @@
 #define EJ_TEST_VALIDATION_COMMON_H
 
 #include <check.h>
+#include <stdarg.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -68,6 +69,45 @@ static inline void vrun_free(vrun *r)
   ej_scene_destroy(r->scene);
   ej_registry_destroy(r->reg);
   memset(r, 0, sizeof *r);
+}
+
+/* A scene given as text, in a fresh temporary directory: dir/s.yaml, output dir/out.h5. */
+typedef struct vscene {
+  char dir[64], scene[128], out[128];
+  vrun r;
+} vscene;
+
+/* Writes the printf-formatted scene, registers the np static plugins, loads the scene and creates
+ * its sim (1 thread, output dir/out.h5). Returns the first error; the caller asserts on it. */
+static inline ej_err vscene_open(vscene *c, const char *tag, const ej_plugin_info *const *plugins, int np,
+                                 const char *fmt, va_list ap)
+{
+  memset(c, 0, sizeof *c);
+  vrun_dir(c->dir, sizeof c->dir, tag);
+  snprintf(c->scene, sizeof c->scene, "%s/s.yaml", c->dir);
+  snprintf(c->out, sizeof c->out, "%s/out.h5", c->dir);
+  FILE *f = fopen(c->scene, "w");
+  ck_assert_ptr_nonnull(f);
+  vfprintf(f, fmt, ap);
+  fclose(f);
+  ck_assert_int_eq(ej_registry_create(&c->r.reg), EJ_OK);
+  for (int k = 0; k < np; ++k) ck_assert_int_eq(ej_registry_add_static(c->r.reg, plugins[k]), EJ_OK);
+  ej_err rc = ej_scene_load(c->scene, c->r.reg, &c->r.scene);
+  if (rc != EJ_OK) return rc;
+  ej_run_opts o = {.threads = 1, .output = c->out};
+  return ej_sim_create(c->r.scene, c->r.reg, &o, &c->r.sim);
+}
+
+static inline void vscene_free(vscene *c)
+{
+  vrun_free(&c->r);
+  char p[1024];
+  const char *names[] = {"s.yaml", "out.h5", "out.xdmf"};
+  for (int k = 0; k < 3; ++k) {
+    snprintf(p, sizeof p, "%s/%s", c->dir, names[k]);
+    unlink(p);
+  }
+  rmdir(c->dir);
 }
 
 /* Removes the files a run left in dir (scene, outputs, XDMF sidecars), then dir. */

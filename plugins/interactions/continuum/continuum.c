@@ -35,9 +35,7 @@ static const ej_param continuum_params[] = {
 
 typedef struct continuum_state {
   cpl_params P;
-  ej_set *a, *b;
-  ej_real h_factor;
-  ej_real *dt_a, *dt_b; /* per owned particle: the interface pairs' stable step */
+  cpl_dt dt;
 } continuum_state;
 
 static ej_err continuum_create(const void *config, ej_set *a, ej_set *b, void **state)
@@ -47,16 +45,11 @@ static ej_err continuum_create(const void *config, ej_set *a, ej_set *b, void **
   continuum_state *s = ej_calloc(1, sizeof *s);
   EJ_ENSURE(s, EJ_ERR_MEM, "out of memory");
   s->P = (cpl_params){.kernel = c->kernel, .form = c->form, .alpha = c->alpha, .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor};
-  s->a = a, s->b = b;
-  s->h_factor = c->h_factor;
-  s->dt_a = ej_malloc(((size_t)ej_set_count(a) + 1) * sizeof *s->dt_a);
-  s->dt_b = ej_malloc(((size_t)ej_set_count(b) + 1) * sizeof *s->dt_b);
-  if (!s->dt_a || !s->dt_b) {
-    ej_free(s->dt_a), ej_free(s->dt_b), ej_free(s);
-    EJ_FAIL(EJ_ERR_MEM, "out of memory");
+  const ej_err rc = cpl_dt_init(&s->dt, a, b);
+  if (rc != EJ_OK) {
+    ej_free(s);
+    return rc;
   }
-  for (ej_idx i = 0; i < ej_set_count(a); ++i) s->dt_a[i] = INFINITY;
-  for (ej_idx i = 0; i < ej_set_count(b); ++i) s->dt_b[i] = INFINITY;
   *state = s;
   return EJ_OK;
 }
@@ -67,20 +60,16 @@ static ej_err continuum_compute(void *state, ej_set *a, ej_set *b, const ej_nbr 
   (void)pass;
   const continuum_state *s = state;
   cpl_side A, B;
-  EJ_TRY(cpl_bind(&A, a, "continuum", s->h_factor));
-  EJ_TRY(cpl_bind(&B, b, "continuum", s->h_factor));
+  EJ_TRY(cpl_bind(&A, a, "continuum", s->P.h_factor));
+  EJ_TRY(cpl_bind(&B, b, "continuum", s->P.h_factor));
   cpl_gather(&s->P, &A, &B, ab, r);
-  cpl_dt_gather(&A, &B, ab, r, a == s->a ? s->dt_a : s->dt_b);
+  cpl_dt_gather(&A, &B, ab, r, cpl_dt_of(&s->dt, a));
   return EJ_OK;
 }
 
 static ej_err continuum_stable_dt(void *state, const ej_set *a, const ej_set *b, ej_real *dt)
 {
-  const continuum_state *s = state;
-  ej_real d = INFINITY;
-  for (ej_idx i = 0; i < ej_set_count(a); ++i) d = s->dt_a[i] < d ? s->dt_a[i] : d;
-  for (ej_idx i = 0; i < ej_set_count(b); ++i) d = s->dt_b[i] < d ? s->dt_b[i] : d;
-  *dt = d;
+  *dt = cpl_dt_min(&((const continuum_state *)state)->dt, a, b);
   return EJ_OK;
 }
 
@@ -88,7 +77,8 @@ static void continuum_destroy(void *state)
 {
   continuum_state *s = state;
   if (!s) return;
-  ej_free(s->dt_a), ej_free(s->dt_b), ej_free(s);
+  cpl_dt_free(&s->dt);
+  ej_free(s);
 }
 
 static const ej_interaction_ops continuum_ops = {

@@ -195,6 +195,41 @@ static inline void cpl_dt_gather(const cpl_side *A, const cpl_side *B, const ej_
   }
 }
 
+/* Per owned particle of both sets: the interface pairs' stable step, written by the gather
+ * calls of each side and reduced by the interaction's stable_dt op. */
+typedef struct cpl_dt {
+  const ej_set *a;
+  ej_real *dt_a, *dt_b;
+} cpl_dt;
+
+static inline ej_err cpl_dt_init(cpl_dt *t, const ej_set *a, const ej_set *b)
+{
+  t->a = a;
+  t->dt_a = ej_malloc(((size_t)ej_set_count(a) + 1) * sizeof *t->dt_a);
+  t->dt_b = ej_malloc(((size_t)ej_set_count(b) + 1) * sizeof *t->dt_b);
+  if (!t->dt_a || !t->dt_b) {
+    ej_free(t->dt_a), ej_free(t->dt_b);
+    t->dt_a = t->dt_b = NULL;
+    EJ_FAIL(EJ_ERR_MEM, "out of memory");
+  }
+  for (ej_idx i = 0; i < ej_set_count(a); ++i) t->dt_a[i] = INFINITY;
+  for (ej_idx i = 0; i < ej_set_count(b); ++i) t->dt_b[i] = INFINITY;
+  return EJ_OK;
+}
+
+static inline void cpl_dt_free(cpl_dt *t) { ej_free(t->dt_a), ej_free(t->dt_b); }
+
+/* The array of the side whose particles a gather call writes. */
+static inline ej_real *cpl_dt_of(const cpl_dt *t, const ej_set *side) { return side == t->a ? t->dt_a : t->dt_b; }
+
+static inline ej_real cpl_dt_min(const cpl_dt *t, const ej_set *a, const ej_set *b)
+{
+  ej_real d = INFINITY;
+  for (ej_idx i = 0; i < ej_set_count(a); ++i) d = t->dt_a[i] < d ? t->dt_a[i] : d;
+  for (ej_idx i = 0; i < ej_set_count(b); ++i) d = t->dt_b[i] < d ? t->dt_b[i] : d;
+  return d;
+}
+
 static inline void cpl_gather(const cpl_params *P, const cpl_side *A, const cpl_side *B, const ej_nbr *ab,
                               ej_range r)
 {

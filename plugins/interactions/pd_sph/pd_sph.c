@@ -83,8 +83,7 @@ typedef struct pd_sph_state {
   pd_sph_config cfg;
   cpl_params P;
   const ej_set *solid; /* the set that publishes F (the PD side) */
-  const ej_set *a;
-  ej_real *dt_a, *dt_b; /* per owned particle: the interface pairs' stable step */
+  cpl_dt dt;
 } pd_sph_state;
 
 static ej_err pd_sph_create(const void *config, ej_set *a, ej_set *b, void **state)
@@ -102,15 +101,11 @@ static ej_err pd_sph_create(const void *config, ej_set *a, ej_set *b, void **sta
   s->cfg = *c;
   s->P = (cpl_params){.kernel = c->kernel, .form = CPL_FORM_VOLUME, .alpha = c->alpha, .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor};
   s->solid = fa ? a : b;
-  s->a = a;
-  s->dt_a = ej_malloc(((size_t)ej_set_count(a) + 1) * sizeof *s->dt_a);
-  s->dt_b = ej_malloc(((size_t)ej_set_count(b) + 1) * sizeof *s->dt_b);
-  if (!s->dt_a || !s->dt_b) {
-    ej_free(s->dt_a), ej_free(s->dt_b), ej_free(s);
-    EJ_FAIL(EJ_ERR_MEM, "out of memory");
+  const ej_err rc = cpl_dt_init(&s->dt, a, b);
+  if (rc != EJ_OK) {
+    ej_free(s);
+    return rc;
   }
-  for (ej_idx i = 0; i < ej_set_count(a); ++i) s->dt_a[i] = INFINITY;
-  for (ej_idx i = 0; i < ej_set_count(b); ++i) s->dt_b[i] = INFINITY;
   *state = s;
   return EJ_OK;
 }
@@ -246,17 +241,13 @@ static ej_err pd_sph_compute(void *state, ej_set *a, ej_set *b, const ej_nbr *ab
   }
   if (a_is_solid && (s->cfg.decohesion_pressure > 0 || s->cfg.decohesion_strain > 0))
     pd_sph_decohesion(s, &A, &B, a, ab, r);
-  cpl_dt_gather(&A, &B, ab, r, a == s->a ? s->dt_a : s->dt_b);
+  cpl_dt_gather(&A, &B, ab, r, cpl_dt_of(&s->dt, a));
   return EJ_OK;
 }
 
 static ej_err pd_sph_stable_dt(void *state, const ej_set *a, const ej_set *b, ej_real *dt)
 {
-  const pd_sph_state *s = state;
-  ej_real d = INFINITY;
-  for (ej_idx i = 0; i < ej_set_count(a); ++i) d = s->dt_a[i] < d ? s->dt_a[i] : d;
-  for (ej_idx i = 0; i < ej_set_count(b); ++i) d = s->dt_b[i] < d ? s->dt_b[i] : d;
-  *dt = d;
+  *dt = cpl_dt_min(&((const pd_sph_state *)state)->dt, a, b);
   return EJ_OK;
 }
 
@@ -264,7 +255,8 @@ static void pd_sph_destroy(void *state)
 {
   pd_sph_state *s = state;
   if (!s) return;
-  ej_free(s->dt_a), ej_free(s->dt_b), ej_free(s);
+  cpl_dt_free(&s->dt);
+  ej_free(s);
 }
 
 static const ej_interaction_ops pd_sph_ops = {

@@ -472,6 +472,16 @@ static inline SPH_ALWAYS_INLINE void sph_corr_rows(const int kernel, const int d
   }
 }
 
+/* The instantiations of a per-(kernel, dimension) kernel: CASE(k, d) expands to one
+ * `case k * 4 + d:` of `switch (kernel * 4 + dim)`. Adding a kernel means adding it here only. */
+#define SPH_FOR_EACH_KERNEL_DIM(CASE)                                                                   \
+  CASE(SPH_KERNEL_CUBIC_SPLINE, 1);                                                                     \
+  CASE(SPH_KERNEL_CUBIC_SPLINE, 2);                                                                     \
+  CASE(SPH_KERNEL_CUBIC_SPLINE, 3);                                                                     \
+  CASE(SPH_KERNEL_WENDLAND_C2, 1);                                                                      \
+  CASE(SPH_KERNEL_WENDLAND_C2, 2);                                                                      \
+  CASE(SPH_KERNEL_WENDLAND_C2, 3)
+
 static ej_err sph_corr_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
 {
   if (!s->cfg.correction) return EJ_OK;
@@ -486,12 +496,7 @@ static ej_err sph_corr_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
     sph_corr_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, L, fb, r);                                \
     break
   switch (s->cfg.kernel * 4 + s->dim) {
-    SPH_CORR_CASE(SPH_KERNEL_CUBIC_SPLINE, 1);
-    SPH_CORR_CASE(SPH_KERNEL_CUBIC_SPLINE, 2);
-    SPH_CORR_CASE(SPH_KERNEL_CUBIC_SPLINE, 3);
-    SPH_CORR_CASE(SPH_KERNEL_WENDLAND_C2, 1);
-    SPH_CORR_CASE(SPH_KERNEL_WENDLAND_C2, 2);
-    SPH_CORR_CASE(SPH_KERNEL_WENDLAND_C2, 3);
+    SPH_FOR_EACH_KERNEL_DIM(SPH_CORR_CASE);
   default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: kernel %d, dimension %d", s->cfg.kernel, s->dim);
   }
 #undef SPH_CORR_CASE
@@ -606,12 +611,7 @@ static ej_err sph_shape_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr,
     sph_shape_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, thr, vol, Minv, fb, r);                  \
     break
   switch (s->cfg.kernel * 4 + s->dim) {
-    SPH_SHAPE_CASE(SPH_KERNEL_CUBIC_SPLINE, 1);
-    SPH_SHAPE_CASE(SPH_KERNEL_CUBIC_SPLINE, 2);
-    SPH_SHAPE_CASE(SPH_KERNEL_CUBIC_SPLINE, 3);
-    SPH_SHAPE_CASE(SPH_KERNEL_WENDLAND_C2, 1);
-    SPH_SHAPE_CASE(SPH_KERNEL_WENDLAND_C2, 2);
-    SPH_SHAPE_CASE(SPH_KERNEL_WENDLAND_C2, 3);
+    SPH_FOR_EACH_KERNEL_DIM(SPH_SHAPE_CASE);
   default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: kernel %d, dimension %d", s->cfg.kernel, s->dim);
   }
 #undef SPH_SHAPE_CASE
@@ -978,12 +978,7 @@ static ej_err sph_sum_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, e
     sph_sum_rows((k), (d), x, m, h, nbr->off, nbr->idx, rho_half, dt, rho, rho_dot, r);                \
     break
   switch (s->cfg.kernel * 4 + s->dim) {
-    SPH_SUM_CASE(SPH_KERNEL_CUBIC_SPLINE, 1);
-    SPH_SUM_CASE(SPH_KERNEL_CUBIC_SPLINE, 2);
-    SPH_SUM_CASE(SPH_KERNEL_CUBIC_SPLINE, 3);
-    SPH_SUM_CASE(SPH_KERNEL_WENDLAND_C2, 1);
-    SPH_SUM_CASE(SPH_KERNEL_WENDLAND_C2, 2);
-    SPH_SUM_CASE(SPH_KERNEL_WENDLAND_C2, 3);
+    SPH_FOR_EACH_KERNEL_DIM(SPH_SUM_CASE);
   default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: kernel %d, dimension %d", s->cfg.kernel, s->dim);
   }
 #undef SPH_SUM_CASE
@@ -1018,14 +1013,8 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
     else sph_pairs_blocked((k), (d), 0, &A, r);                                                         \
     break
   switch (s->cfg.kernel * 4 + s->dim) {
-    SPH_CASE(SPH_KERNEL_CUBIC_SPLINE, 1);
-    SPH_CASE(SPH_KERNEL_CUBIC_SPLINE, 2);
-    SPH_CASE(SPH_KERNEL_CUBIC_SPLINE, 3);
-    SPH_CASE(SPH_KERNEL_WENDLAND_C2, 1);
-    SPH_CASE(SPH_KERNEL_WENDLAND_C2, 2);
-    SPH_CASE(SPH_KERNEL_WENDLAND_C2, 3);
-  default:
-    EJ_FAIL(EJ_ERR_INTERNAL, "sph: kernel %d, dimension %d", s->cfg.kernel, s->dim);
+    SPH_FOR_EACH_KERNEL_DIM(SPH_CASE);
+  default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: kernel %d, dimension %d", s->cfg.kernel, s->dim);
   }
 #undef SPH_CASE
   return EJ_OK;
