@@ -44,7 +44,12 @@ test-sanitize: deps
 	ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --test-dir $(ASAN) --output-on-failure -j $(JOBS)
 
+# ParaView (pvpython) and Xvfb for the ParaView check of the output (test_paraview renders
+# through ParaView under a virtual X server; it is skipped by `make test` when they are absent).
+VALIDATE_DEPS := paraview python3-paraview xvfb xauth
 validate: build
+	@$(MAKE) --no-print-directory deps DEB_DEPS="$(VALIDATE_DEPS)"
+	ctest --test-dir $(BUILD) --output-on-failure -R '^test_paraview$$'
 	$(PYTHON) validation/run_all.py --build $(BUILD) --full
 
 bench: build

@@ -2,9 +2,12 @@
 """Render the last frame (or any frame) of an ejecta output, coloured by a field, to a PNG.
 
 Opens the XDMF sidecar that every run writes beside its HDF5 file (NAME.xdmf), as ParaView
-does. Run it with ParaView's Python to render through ParaView:
+does. Run it with ParaView's Python to render through ParaView (Debian: apt-get install paraview
+python3-paraview; on a machine without a display, under Xvfb with a 24-bit screen: apt-get install
+xvfb xauth):
 
   pvpython tools/render.py out/sedov_3d.xdmf --field rho -o sedov.png
+  xvfb-run -a -s "-screen 0 1280x1024x24 -noreset" pvpython tools/render.py out/sedov_3d.xdmf -o sedov.png
 
 Without ParaView, /usr/bin/python3 (h5py + matplotlib) follows the same XDMF references and
 draws the particles with matplotlib (1D: field against x; 2D: x-y scatter; 3D: 3D scatter):
@@ -56,6 +59,8 @@ def render_paraview(a, out):
     merged.UpdatePipeline(t)
     info = merged.GetDataInformation()
     npts = info.GetNumberOfPoints()
+    if info.GetNumberOfCells() != npts:  # a point without its vertex cell is not drawn
+        sys.exit(f"render: the frame has {npts} points but {info.GetNumberOfCells()} vertex cells")
     arr = merged.PointData[a.field] if a.field in merged.PointData.keys() else None
     if arr is None:
         sys.exit(f"render: no point field '{a.field}' (fields: {', '.join(merged.PointData.keys())})")
@@ -72,6 +77,10 @@ def render_paraview(a, out):
     disp.SetScalarBarVisibility(view, True)
     view.ResetCamera()
     pv.SaveScreenshot(out, view, ImageResolution=a.size)
+    # Release the render window now: torn down at interpreter exit, Debian's ParaView 5.11 under
+    # Xvfb raises GLXBadContext and the process would exit 1 after a successful render.
+    pv.Delete(disp)
+    pv.Delete(view)
     return npts, lo, hi, t
 
 

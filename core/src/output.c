@@ -8,6 +8,7 @@
  *   /meta/dimension                                                       int32 dataset
  *   /frames/NNNNNN              attrs time, step
  *   /frames/NNNNNN/<set>        attr count; datasets x, id, output fields ([n] or [n][ncomp])
+ *   /xdmf/vertices_N            int32 0 .. N-1: the XDMF vertex cells of a set of N points
  *   /series/energy/<column>     extendible 1-D double datasets, one row per step
  *   /checkpoint                 attrs t, dt, step, ... format_version; per set attr n and
  *                               every non-scratch field
@@ -459,6 +460,33 @@ static int ej_frame_fields(const ej_set *s, const ej_scene *sc, int *idx)
   return n;
 }
 
+/* /xdmf/vertices_N: the cell list 0 .. N-1 of a Polyvertex grid of N points, written once per
+ * distinct set size. XDMF 3 readers (ParaView's Xdmf3ReaderS/T, the default choices for .xdmf)
+ * build no cells from a Polyvertex topology without connectivity, and render nothing. */
+static ej_err ej_xdmf_vertices(ej_output *out, ej_idx n, char *name, size_t name_size)
+{
+  snprintf(name, name_size, "/xdmf/vertices_%ld", (long)n);
+  if (H5Lexists(out->file, "/xdmf", H5P_DEFAULT) <= 0) {
+    hid_t g;
+    EJ_TRY(ej_h5_group(out->file, "/xdmf", &g));
+    H5Gclose(g);
+  }
+  if (H5Lexists(out->file, name, H5P_DEFAULT) > 0) return EJ_OK;
+  ej_err rc = EJ_OK;
+  int32_t *iota = ej_malloc((size_t)n * sizeof *iota);
+  EJ_ENSURE(iota, EJ_ERR_MEM, "cannot allocate the XDMF cell list of %ld points", (long)n);
+  for (ej_idx i = 0; i < n; ++i) iota[i] = (int32_t)i;
+  hsize_t dims[1] = {(hsize_t)n};
+  hid_t space = H5Screate_simple(1, dims, NULL), dset = -1;
+  if (space >= 0) dset = H5Dcreate2(out->file, name, H5T_STD_I32LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (dset < 0 || H5Dwrite(dset, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, iota) < 0)
+    rc = EJ_H5_FAIL(out->file, name);
+  if (dset >= 0) H5Dclose(dset);
+  if (space >= 0) H5Sclose(space);
+  ej_free(iota);
+  return rc;
+}
+
 static ej_err ej_frame_set(ej_output *out, hid_t frame, const char *frame_name, const ej_set *s,
                            const ej_scene *sc)
 {
@@ -472,6 +500,8 @@ static ej_err ej_frame_set(ej_output *out, hid_t frame, const char *frame_name, 
 
   /* Empty sets and sets without positions have nothing ParaView could draw. */
   if (s->n == 0 || n_idx == 0 || strcmp(s->fields[idx[0]].name, "x") != 0) goto close_group;
+  char cells[64];
+  EJ_TRY_GOTO(rc, ej_xdmf_vertices(out, s->n, cells, sizeof cells), close_group);
   ej_buf *b = &out->grids;
   EJ_TRY_GOTO(rc, ej_buf_printf(b, "        <Grid Name=\""), close_group);
   EJ_TRY_GOTO(rc, ej_xml_text(b, s->name), close_group);
@@ -479,9 +509,18 @@ static ej_err ej_frame_set(ej_output *out, hid_t frame, const char *frame_name, 
               ej_buf_printf(b,
                             "\" GridType=\"Uniform\">\n"
                             "          <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%ld\" "
-                            "NodesPerElement=\"1\"/>\n"
+                            "NodesPerElement=\"1\">\n"
+                            "            <DataItem Dimensions=\"%ld\" NumberType=\"Int\" Precision=\"4\" "
+                            "Format=\"HDF\">",
+                            (long)s->n, (long)s->n),
+              close_group);
+  EJ_TRY_GOTO(rc, ej_xml_text(b, out->h5_name), close_group);
+  EJ_TRY_GOTO(rc,
+              ej_buf_printf(b,
+                            ":%s</DataItem>\n"
+                            "          </Topology>\n"
                             "          <Geometry GeometryType=\"XYZ\">\n            ",
-                            (long)s->n),
+                            cells),
               close_group);
   EJ_TRY_GOTO(rc, ej_xdmf_item(b, out, frame_name, s->name, &s->fields[idx[0]], s->n), close_group);
   EJ_TRY_GOTO(rc, ej_buf_printf(b, "\n          </Geometry>\n"), close_group);

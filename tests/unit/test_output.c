@@ -362,6 +362,13 @@ START_TEST(test_file_layout)
   ck_assert(!has(f, "/checkpoint/charge/tmp"));
   ck_assert(!has(f, "/checkpoint/charge/v_half"));
   ck_assert(!has(f, "/checkpoint/soil/work"));
+  {
+    int cells[7];
+    hid_t d = H5Dopen2(f, "/xdmf/vertices_7", H5P_DEFAULT);
+    ck_assert(d >= 0 && H5Dread(d, H5T_NATIVE_INT, H5S_ALL, H5S_ALL, H5P_DEFAULT, cells) >= 0);
+    for (int k = 0; k < 7; ++k) ck_assert_int_eq(cells[k], k);
+    H5Dclose(d);
+  }
   check_dataset(f, "/checkpoint/soil/F", fx.sets[1], "F", "tensor9");
   H5Fclose(f);
 
@@ -381,6 +388,8 @@ START_TEST(test_file_layout)
   ck_assert_ptr_nonnull(strstr(x, "AttributeType=\"Tensor6\""));
   ck_assert_ptr_nonnull(strstr(x, "CollectionType=\"Temporal\""));
   ck_assert_ptr_nonnull(strstr(x, "NumberOfElements=\"7\""));
+  /* Vertex cells listed (XDMF 3 readers build none without them): the set of 7 points. */
+  ck_assert_ptr_nonnull(strstr(x, "run.h5:/xdmf/vertices_7</DataItem>"));
   free(x);
   if (system("command -v xmllint >/dev/null 2>&1") == 0) {
     char cmd[256];
