@@ -72,3 +72,55 @@ def order(h, err):
     slope = np.polyfit(lh, le, 1)[0]
     pairs = [(le[i + 1] - le[i]) / (lh[i + 1] - lh[i]) for i in range(len(h) - 1)]
     return slope, pairs
+
+
+def _tool(name):
+    """tools/<name>.py as a module: the validation figures are drawn by the user-facing tools."""
+    tools = os.path.join(ROOT, "tools")
+    if tools not in sys.path:
+        sys.path.insert(0, tools)
+    return __import__(name)
+
+
+def energy_figure(h5, png, title=None, series=None):
+    """The run's energy budget (or the named series) against time, by tools/plot_series.py:
+    every validation case shows the energy budget of its reference run this way."""
+    argv = [h5] + list(series or []) + ["-o", png]
+    if not series:
+        argv += ["--preset", "energy"]
+    if title:
+        argv += ["--title", title]
+    rc = _tool("plot_series").main(argv)
+    if rc:
+        raise RuntimeError(f"tools/plot_series.py {' '.join(argv)} exited with {rc}")
+    return png
+
+
+def profile_figure(h5, set_name, field, ref_csv, png, component=None, axis=None, line=None, width=None,
+                   time=None, ref_columns=None):
+    """A field along a line against a reference curve (CSV), by tools/compare.py. Returns the
+    relative L1 and Linf errors that compare.py printed (the case applies its own tolerance)."""
+    import contextlib
+    import io
+    argv = [h5, "--set", set_name, "--field", field, "--ref", ref_csv, "-o", png]
+    if component:
+        argv += ["--component", component]
+    argv += ["--axis", axis] if axis else ["--line"] + [str(v) for v in line]
+    if width is not None:
+        argv += ["--width", str(width)]
+    if time is not None:
+        argv += ["--time", f"{time!r}"]
+    if ref_columns:
+        argv += ["--ref-columns", ref_columns]
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        rc = _tool("compare").main(argv)
+    text = buf.getvalue()
+    if rc:
+        sys.stdout.write(text)
+        raise RuntimeError(f"tools/compare.py {' '.join(argv)} exited with {rc}")
+    for ln in text.splitlines():
+        if "L1_rel =" in ln:
+            parts = dict(p.split(" = ") for p in ln.replace("compare: ", "").split("  "))
+            return float(parts["L1_rel"]), float(parts["Linf_rel"])
+    raise RuntimeError("tools/compare.py printed no errors")

@@ -78,6 +78,8 @@ def main():
             nc, frac = clusters(d["x"][:, :2], 1.5 * DX)
             res[s] = (d["x"][:, :2], d["v"][:, 0].mean(), nc, frac, d["time"])
         results[art] = res
+        common.energy_figure(path, os.path.join(HERE, f"{name}_energy.png"),
+                             title=f"Rubber rings, art_stress {'on' if art else 'off'}: energy budget")
         print(f"  art_stress {art}: t = {res['left'][4]:.4f} s, left ring <vx> = {res['left'][1]:+.3f} m/s, "
               f"clusters left/right = {res['left'][2]}/{res['right'][2]}, largest cluster "
               f"{res['left'][3]:.4f}/{res['right'][3]:.4f}")

@@ -268,7 +268,20 @@ def run_gradient(gradient, exe, args, spacings_1d, spacings_3d):
         plot_profiles(last["3d"], f"Sod 3D periodic tube projected on x{gl}, left spacing {res['3d'][-1][0]:g} m",
                       os.path.join(HERE, f"sod_3d{tag}.png"))
     plot_convergence(res, os.path.join(HERE, f"sod_convergence{tag}.png"))
-    print(f"  figures: validation/sod/sod_1d{tag}.png, sod_3d{tag}.png, sod_convergence{tag}.png")
+    # The finest 1D run through the user tools: density along x against the exact solution
+    # (tools/compare.py) and the energy budget (tools/plot_series.py).
+    finest = os.path.join(args.out, f"sod_1d{tag}_{h1[-1]:g}.h5")
+    xe = np.linspace(-0.5, 0.5, 2001)
+    ref_csv = os.path.join(args.out, "sod_exact.csv")
+    np.savetxt(ref_csv, np.column_stack([xe, exact.sample(xe, T_END, exact.SOD_LEFT, exact.SOD_RIGHT)[0]]),
+               delimiter=",", header="x,rho", comments="")
+    l1r, linfr = common.profile_figure(finest, "tube", "rho", ref_csv, os.path.join(HERE, f"sod_1d{tag}_compare.png"),
+                                       axis="x")
+    common.energy_figure(finest, os.path.join(HERE, f"sod_1d{tag}_energy.png"),
+                         title=f"Sod 1D{gl}, spacing {h1[-1]:g} m: energy budget")
+    print(f"  tools/compare.py on the finest 1D run: L1_rel(rho) = {l1r:.4f}, Linf_rel = {linfr:.3f}")
+    print(f"  figures: validation/sod/sod_1d{tag}.png, sod_3d{tag}.png, sod_convergence{tag}.png, "
+          f"sod_1d{tag}_compare.png, sod_1d{tag}_energy.png")
     print(f"  gradient {gradient}: {'PASS' if ok else 'FAIL'}")
     return ok
 

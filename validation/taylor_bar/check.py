@@ -65,6 +65,8 @@ def main():
     ax.set_title("Taylor bar, Armco iron 220 m/s, sph + JC + Mie-Grueneisen")
     ax.legend(fontsize=8)
     fig.savefig(os.path.join(HERE, "taylor_bar.png"), dpi=120)
+    common.energy_figure(path, os.path.join(HERE, "taylor_bar_energy.png"),
+                         title=f"Taylor bar, dx {min(args.spacing) * 1e3:g} mm: energy budget (plastic work)")
     ok = all(abs(res[k] / REF[k] - 1) <= TOL[k] for k in REF)
     print("PASS" if ok else "FAIL", "(finest spacing; tolerances L 2 %, D 5 %, W 5 %)")
     return 0 if ok else 1
