@@ -71,7 +71,7 @@ def main():
     p0, _ = common.run(exe, scene(a.dx, True, "x", None, t_end="1e-9").replace("file: x", f"file: {a.out}/pos.h5"), "pos", a.out,
                        threads=a.threads)
     d0 = common.read_frame(p0, common.frames(p0)[0])
-    xy = np.round(d0["x"][:, :2] / a.dx * 2) / 2 * a.dx
+    xy = np.round(d0["x"][:, :2], 9)  # the lattice's own columns (any dx)
     cols = sorted(set(map(tuple, xy)))
     # (tag, E, objective): the soil of 000 and a 25x stiffer one (centrifugal stretch
     # rho omega^2 R^2 / E: 1.1 % and 0.043 %)
@@ -120,6 +120,7 @@ def main():
             continue
         T = []
         V = {p[1]: [] for p in probes}
+        Rr = {p[1]: [] for p in probes}
         for fr in common.frames(path):
             d = common.read_frame(path, fr)
             pos = {int(i): k for k, i in enumerate(d["id"])}
@@ -128,17 +129,23 @@ def main():
             T.append(d["time"])
             for _, pid, _ in probes:
                 V[pid].append(np.linalg.norm(d["v"][pos[pid]]))
+                Rr[pid].append(np.hypot(*d["x"][pos[pid]][:2]))
         T = np.array(T)
         worst = 0
         for frac, pid, r0 in probes:
-            v = np.array(V[pid])
+            v, rad = np.array(V[pid]), np.array(Rr[pid])
             dev = np.max(np.abs(v / (OMEGA * r0) - 1)) if np.all(np.isfinite(v)) else np.inf
-            worst = max(worst, dev)
-            axk.plot(T * 1e3, v, label=f"r0 = {r0*1e3:.2f} mm ({frac:g} R)")
-            axk.axhline(OMEGA * r0, ls="--", lw=0.7, color="k")
+            # a rigid rotation also keeps the radius: the non-objective scheme may keep |v| and
+            # lose the body instead (it flies apart), so its divergence is the larger of both
+            rdev = np.max(np.abs(rad / r0 - 1)) if np.all(np.isfinite(rad)) else np.inf
+            worst = max(worst, dev if objective else max(dev, rdev))
+            ln = axk.plot(T * 1e3, v / (OMEGA * r0), label=f"|v| / (omega r0), r0 = {r0*1e3:.2f} mm ({frac:g} R)")
+            if not objective:
+                axk.plot(T * 1e3, rad / r0, ls=":", color=ln[0].get_color(), label=f"r / r0 ({frac:g} R)")
             print(f"{tag:5s} {'objective' if objective else 'plain':9s} r0 = {r0*1e3:6.3f} mm ({frac:4.2f} R): omega r0 = "
                   f"{OMEGA*r0:6.3f} m/s, |v| in [{np.nanmin(v):.4g}, {np.nanmax(v):.4g}], max deviation {100*dev:.3f} %, "
-                  f"reached t = {T[-1]*1e3:.3f} ms")
+                  f"radius deviation {100*rdev:.2f} %, reached t = {T[-1]*1e3:.3f} ms")
+        axk.axhline(1, ls="--", lw=0.7, color="k")
         if objective and tag == "stiff":
             good = worst < TOL
             print(f"stiff, objective update: max deviation {100*worst:.3f} % (tol {100*TOL:.1f} %)  {'PASS' if good else 'FAIL'}")
@@ -148,11 +155,12 @@ def main():
                   "reported, not a criterion)")
         else:
             good = worst > 0.05
-            print(f"{tag}, without rotation: max deviation {100*worst:.1f} % (must exceed 5 %)  {'PASS' if good else 'FAIL'}")
+            print(f"{tag}, objective: false: max deviation from the rigid rotation (speed or radius) {100*worst:.1f} % "
+                  f"(must exceed 5 %)  {'PASS' if good else 'FAIL'}")
         ok &= good
         axk.set_title(f"{tag} (E = {E}), " + ("Hughes-Winget (objective: true)" if objective else "objective: false"))
         axk.set_xlabel("t (ms)")
-        axk.set_ylabel("|v| (m/s)")
+        axk.set_ylabel("|v| / (omega r0)" + ("" if objective else ", r / r0 (dotted)"))
         if not objective:
             axk.set_yscale("log")
         axk.legend(fontsize=8)
