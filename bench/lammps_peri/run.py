@@ -18,9 +18,11 @@ times its "% CPU use"; ejecta's user + system time minus that of a 1-step run of
 too. The 2-thread speed-up is given from wall time and, as a load-independent estimate, from CPU
 time: 2 x CPU(1 thread) / CPU(2 threads) (idle spinning and imbalance count as CPU time).
 
-Usage: run.py [--ejecta PATH] [--big SCALE] [--no-big] [--steps N]
+Usage: run.py [--ejecta PATH] [--big SCALE] [--no-big] [--big-steps N] [--only-big] [--steps N]
   --big SCALE: also run the target enlarged SCALE times in every direction (3487 SCALE^3
-  particles; 7 gives 1,091,483) for a few steps with both codes: time per step and memory.
+  particles; 7 gives 1,091,483) with both codes: LAMMPS 5 steps (its loop time), ejecta
+  --big-steps steps (default 25) minus a 1-step run (set-up: CSV import, families), 1 and 2
+  threads: time per step and memory. --only-big: only this part, merged into results.json.
 """
 import json
 import os
@@ -51,6 +53,8 @@ def arg(name, default):
 EJECTA = arg("--ejecta", os.path.join(ROOT, "build", "bin", "ejecta"))
 STEPS = int(arg("--steps", "1000"))
 BIG = 0 if "--no-big" in sys.argv else int(arg("--big", "7"))
+BIG_STEPS = int(arg("--big-steps", "25"))  # ejecta steps of the enlarged run (LAMMPS: 5, its loop time is direct)
+ONLY_BIG = "--only-big" in sys.argv  # rerun the enlarged target only, keeping the rest of results.json
 
 
 def timed(cmd, cwd, env=None):
@@ -150,7 +154,10 @@ def ejecta_scene(model, workdir, steps, csv, fields="[v, damage]", every=1.0e-5)
 
 
 def run_ejecta(scene, workdir, threads, out="out.h5"):
-    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+    # passive waiting: a thread that waits at a barrier sleeps instead of spinning, so on a shared
+    # machine the CPU time counts work (and synchronisation), not spinning while the other thread
+    # waits for a core
+    env = dict(os.environ, OMP_NUM_THREADS=str(threads), OMP_WAIT_POLICY="passive")
     return timed([EJECTA, "run", scene, "-o", out, "--threads", str(threads)], workdir, env)
 
 
@@ -183,12 +190,16 @@ def main():
     tmp = tempfile.mkdtemp(prefix="ej_lammps_peri_")
     csv = os.path.join(tmp, "target.csv")
     npart = make_target.write(csv, 1)
-    results = {"lammps_version": version, "steps": STEPS, "particles": npart, "models": {}}
+    results = {"lammps_version": version, "steps": STEPS, "particles": npart, "models": {},
+               "loadavg_before": os.getloadavg()}
+    if ONLY_BIG:
+        results = json.load(open(os.path.join(HERE, "results.json")))
+        results["loadavg_before_big"] = os.getloadavg()
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(2, 3, figsize=(15, 9))
-    for row, model in enumerate(("pmb", "lps")):
+    for row, model in enumerate(() if ONLY_BIG else ("pmb", "lps")):
         wl = os.path.join(tmp, f"lmp_{model}")
         os.makedirs(wl)
         inp = lammps_input(model, STEPS, workdir=wl)
@@ -252,7 +263,8 @@ def main():
         ax.set_xlabel("t [us]"), ax.set_ylabel("kinetic energy [mJ]"), ax.legend()
         ax.set_title(f"{model.upper()}: kinetic energy")
     fig.tight_layout()
-    fig.savefig(os.path.join(HERE, "lammps_peri.png"), dpi=110)
+    if not ONLY_BIG:
+        fig.savefig(os.path.join(HERE, "lammps_peri.png"), dpi=110)
 
     if BIG > 1:
         big = {}
@@ -260,24 +272,35 @@ def main():
         os.makedirs(wb)
         bcsv = os.path.join(wb, "big.csv")
         nb = make_target.write(bcsv, BIG)
-        nsteps = 5
+        nsteps, esteps = 5, BIG_STEPS
         for model in ("pmb",):
             inp = lammps_input(model, nsteps, dump=False, scale=BIG, workdir=wb)
             out, wall_l, _, rss_l = timed(["nice", "lmp", "-in", inp, "-log", "none"], wb)
             L = parse_lammps(out, wb, nsteps)
-            sc_n = ejecta_scene(model, wb, nsteps, bcsv, fields="[damage]", every=0)
+            sc_n = ejecta_scene(model, wb, esteps, bcsv, fields="[damage]", every=0)
             sc_1 = ejecta_scene(model, wb, 1, bcsv, fields="[damage]", every=0)
             _, w_n, c_n, rss_e = run_ejecta(sc_n, wb, 1, out="bn.h5")
             _, w_1, c_1, _ = run_ejecta(sc_1, wb, 1, out="b1.h5")
-            big[model] = dict(particles=nb, lammps_particles=L["n"], steps=nsteps,
-                              lammps_s_per_step=L["loop_cpu"] / nsteps, ejecta_s_per_step=(c_n - c_1) / (nsteps - 1),
-                              lammps_rss=rss_l, ejecta_rss=rss_e,
+            _, w_n2, c_n2, rss_e2 = run_ejecta(sc_n, wb, 2, out="bn2.h5")
+            _, w_12, c_12, _ = run_ejecta(sc_1, wb, 2, out="b12.h5")
+            big[model] = dict(particles=nb, lammps_particles=L["n"], steps=nsteps, ejecta_steps=esteps,
+                              lammps_s_per_step=L["loop_cpu"] / nsteps, lammps_wall_s_per_step=L["loop"] / nsteps,
+                              ejecta_s_per_step=(c_n - c_1) / (esteps - 1),
+                              ejecta_wall_s_per_step=(w_n - w_1) / (esteps - 1),
+                              ejecta_2t_cpu_s_per_step=(c_n2 - c_12) / (esteps - 1),
+                              ejecta_2t_wall_s_per_step=(w_n2 - w_12) / (esteps - 1),
+                              ejecta_setup_wall_s=w_1,
+                              lammps_rss=rss_l, ejecta_rss=rss_e, ejecta_rss_2t=rss_e2,
                               lammps_bytes_per_particle=rss_l / L["n"], ejecta_bytes_per_particle=rss_e / nb)
         results["big"] = big
+    results["loadavg_after"] = os.getloadavg()
 
     json.dump(results, open(os.path.join(HERE, "results.json"), "w"), indent=1)
     # ------------------------------------------------------------------ table
     print(f"LAMMPS {version}; {npart} particles, {STEPS} steps of 1e-7 s; ejecta {EJECTA}")
+    la = lambda v: "(" + ", ".join(f"{a:.1f}" for a in v) + ")"  # noqa: E731
+    print(f"load average (1, 5, 15 min) before {la(results['loadavg_before'])}, after "
+          f"{la(results['loadavg_after'])} on {os.cpu_count()} cores")
     for model, r in results["models"].items():
         print(f"\n== {model.upper()}")
         d = r["damage_mean"]
@@ -304,9 +327,15 @@ def main():
         print(f"ejecta energy balance at end {r['energy_balance_end']:.3e} J (KE {r['ke_end']:.3e} J)")
     for model, b in results.get("big", {}).items():
         print(f"\n== enlarged target ({model.upper()}): ejecta {b['particles']} / LAMMPS {b['lammps_particles']} particles, "
-              f"{b['steps']} steps")
+              f"LAMMPS {b['steps']} steps, ejecta {b.get('ejecta_steps', b['steps'])} steps minus a 1-step run")
         print(f"CPU time per step [s]   LAMMPS {b['lammps_s_per_step']:.3f}  ejecta 1t {b['ejecta_s_per_step']:.3f}  "
               f"ratio {b['lammps_s_per_step'] / b['ejecta_s_per_step']:.2f}x")
+        print(f"ejecta per step [s]     1t wall {b['ejecta_wall_s_per_step']:.3f}; 2t CPU {b['ejecta_2t_cpu_s_per_step']:.3f}"
+              f" (estimate 2 CPU1/CPU2 = {2 * b['ejecta_s_per_step'] / b['ejecta_2t_cpu_s_per_step']:.2f}x), "
+              f"wall {b['ejecta_2t_wall_s_per_step']:.3f} ({b['ejecta_wall_s_per_step'] / b['ejecta_2t_wall_s_per_step']:.2f}x)")
+        print(f"ejecta set-up (CSV import, families, 1 step) wall {b['ejecta_setup_wall_s']:.1f} s; "
+              f"peak RSS 1t {b['ejecta_rss'] / 2**20:.0f} MiB, 2t {b['ejecta_rss_2t'] / 2**20:.0f} MiB, "
+              f"LAMMPS {b['lammps_rss'] / 2**20:.0f} MiB")
         print(f"memory [bytes/particle] LAMMPS {b['lammps_bytes_per_particle']:.0f}  ejecta {b['ejecta_bytes_per_particle']:.0f}"
               f"  [{'PASS' if b['ejecta_bytes_per_particle'] <= b['lammps_bytes_per_particle'] else 'FAIL'} <= LAMMPS]")
     print(f"\nwrote {os.path.join(HERE, 'lammps_peri.png')} and results.json; work dir {tmp}")

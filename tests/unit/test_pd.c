@@ -244,6 +244,92 @@ static void block(pd_fix *f, int lps, int side, double amp, uint64_t seed)
   fix_start(f, false);
 }
 
+START_TEST(test_contact_bonded)
+{
+  /* Two particles 1.0 lc apart, bonded (delta = 1.1 lc, no volume scaling), pushed to 0.5 lc: the
+   * contact of a family pair is found in the bond loop, d = min(0.9 lc, 1.35 lc) = 0.9 lc, on top
+   * of the bond force c V s with s = -0.5. */
+  pd_fix f;
+  fix_open(&f, 0, 2);
+  const ej_real lc = 1e-3, c = 1e20, V = 1e-9, rho = 2200, delta = 1.1e-3;
+  set_real(&f, "horizon", delta), set_real(&f, "c", c), set_real(&f, "lattice_spacing", lc);
+  set_bool(&f, "volume_scaling", false);
+  ej_real *x = ej_set_field(f.set, "x"), *x0 = ej_set_field(f.set, "x0");
+  memset(x0, 0, 6 * sizeof *x0);
+  x0[5] = lc;
+  memcpy(x, x0, 6 * sizeof *x);
+  x[5] = 0.5 * lc;
+  set_mass(&f, rho, V);
+  fix_start(&f, false);
+  fix_compute(&f);
+  const ej_real *a = ej_set_field(f.set, "a"), *e = ej_set_field(f.set, "e_pd");
+  const ej_real d = 0.9 * lc, fc = 15.0 * c * V * (d - 0.5 * lc) / delta, fb = 0.5 * c * V;
+  ck_assert_msg(rel(a[2], -(fb + fc) / rho) < 1e-12, "a_z %.15g want %.15g", a[2], -(fb + fc) / rho);
+  ck_assert(rel(a[5], (fb + fc) / rho) < 1e-12);
+  const ej_real e_want = (0.25 * c * V * 0.5 * 0.5 * lc + 15.0 * c * V * (d - 0.5 * lc) * (d - 0.5 * lc) / (4 * delta)) / rho;
+  ck_assert_msg(rel(e[0], e_want) < 1e-12, "energy %.15g want %.15g", e[0], e_want);
+  /* without contact: the bond force alone */
+  fix_close(&f);
+  fix_open(&f, 0, 2);
+  set_real(&f, "horizon", delta), set_real(&f, "c", c), set_real(&f, "lattice_spacing", lc);
+  set_bool(&f, "volume_scaling", false), set_bool(&f, "contact", false);
+  x = ej_set_field(f.set, "x"), x0 = ej_set_field(f.set, "x0");
+  memset(x0, 0, 6 * sizeof *x0);
+  x0[5] = lc;
+  memcpy(x, x0, 6 * sizeof *x);
+  x[5] = 0.5 * lc;
+  set_mass(&f, rho, V);
+  fix_start(&f, false);
+  fix_compute(&f);
+  a = ej_set_field(f.set, "a");
+  ck_assert_msg(rel(a[2], -fb / rho) < 1e-12, "no contact: a_z %.15g want %.15g", a[2], -fb / rho);
+  fix_close(&f);
+}
+END_TEST
+
+START_TEST(test_contact_crowded)
+{
+  /* 3x3x3 particles, no families (delta = 0.5 lc), the lattice squeezed to 0.85 lc: the centre
+   * has 18 non-family particles within the list radius 1.7 lc (more than the 8 stored: searched in
+   * the grid at the force evaluation), the corners 7. Every contact force against a brute-force
+   * sum over all pairs: 15 c V (d - r)/delta with d = min(0.9 |xi|, 1.35 lc). */
+  pd_fix f;
+  fix_open(&f, 0, 27);
+  const ej_real lc = 1e-3, c = 1e20, V = 1e-9, rho = 2200, delta = 0.5e-3;
+  set_real(&f, "horizon", delta), set_real(&f, "c", c), set_real(&f, "lattice_spacing", lc);
+  ej_real *x = ej_set_field(f.set, "x"), *x0 = ej_set_field(f.set, "x0");
+  for (int k = 0; k < 27; ++k) {
+    x0[3 * k] = (k % 3) * lc, x0[3 * k + 1] = (k / 3 % 3) * lc, x0[3 * k + 2] = (k / 9) * lc;
+    for (int d = 0; d < 3; ++d) x[3 * k + d] = 0.85 * x0[3 * k + d];
+  }
+  set_mass(&f, rho, V);
+  fix_start(&f, false);
+  fix_compute(&f);
+  const ej_real *a = ej_set_field(f.set, "a");
+  double amax = 0, err = 0;
+  for (int i = 0; i < 27; ++i) {
+    double want[3] = {0, 0, 0};
+    for (int j = 0; j < 27; ++j) {
+      if (j == i) continue;
+      double e2 = 0, r2 = 0, dd[3];
+      for (int d = 0; d < 3; ++d) {
+        const double e = x0[3 * i + d] - x0[3 * j + d];
+        dd[d] = x[3 * i + d] - x[3 * j + d];
+        e2 += e * e, r2 += dd[d] * dd[d];
+      }
+      const double dc = fmin(0.9 * sqrt(e2), 1.35 * lc), r = sqrt(r2);
+      if (r >= dc) continue;
+      const double fm = 15.0 * c * V * (dc - r) / delta; /* away from j */
+      for (int d = 0; d < 3; ++d) want[d] += fm * dd[d] / r / rho;
+    }
+    for (int d = 0; d < 3; ++d) amax = fmax(amax, fabs(want[d])), err = fmax(err, fabs(a[3 * i + d] - want[d]));
+  }
+  ck_assert_msg(amax > 0, "no contact force");
+  ck_assert_msg(err < 1e-12 * amax, "contact accelerations off by %g of %g", err, amax);
+  fix_close(&f);
+}
+END_TEST
+
 START_TEST(test_momentum)
 {
   for (int lps = 0; lps < 2; ++lps) {
@@ -588,6 +674,8 @@ int main(void)
   tcase_add_test(tc, test_pmb_bond_hand);
   tcase_add_test(tc, test_volume_scaling);
   tcase_add_test(tc, test_contact_hand);
+  tcase_add_test(tc, test_contact_bonded);
+  tcase_add_test(tc, test_contact_crowded);
   tcase_add_test(tc, test_momentum);
   tcase_add_test(tc, test_energy_conservation);
   tcase_add_test(tc, test_breaking_and_damage);

@@ -31,13 +31,16 @@
  * a broken bond), aligned with the CSR entries and recomputed from x0, vol0 and the flags on the
  * first compute (the families do not exist before: setup runs before the core sorts the set), so a
  * restarted run continues with the same broken bonds.
- * The contact search needs the current configuration, which a reference-family method does not
- * get from the core: a hashed cell grid with a Verlet skin, rebuilt inside the plugin when a
- * particle has moved more than half the skin.
+ * Contact of family pairs (within the horizon in the reference: bonded, broken or notch-cut) is
+ * tested in the bond loop, which visits them anyway. The other pairs need the current
+ * configuration, which a reference-family method does not get from the core: a dense cell grid
+ * and a Verlet list of the NON-family pairs (empty for an intact lattice), rebuilt inside the
+ * plugin when a particle has moved more than half the skin (grid serial, row searches per chunk).
  *
- * Two passes per step: pass 0 checks displacements for the contact list (and, LPS, computes the
- * dilatation theta); pass 1 computes forces, energies, breaks bonds and the new s0. Gather form:
- * each particle sums over its own bonds and contacts and writes only itself. */
+ * Two passes per step: pass 0 checks displacements for the contact list, packs x, y, z, s0 for the
+ * AVX2 PMB loop (and, LPS, computes the dilatation theta); pass 1 (re)builds the contact rows when
+ * due, computes forces, energies, breaks bonds and the new s0. Gather form: each particle sums over
+ * its own bonds and contacts and writes only itself. */
 #include <float.h>
 #include <math.h>
 #include <stdint.h>
@@ -45,8 +48,17 @@
 
 #include "ejecta/plugin.h"
 
+#if defined(__AVX2__)
+#include <immintrin.h>
+#define PD_AVX2 1
+#else
+#define PD_AVX2 0
+#endif
+
 #define PD_NEAR_ZERO 2.2204e-16 /* LAMMPS's round-off guard on r - r0 (pair_peri_*.cpp) */
 #define PD_PI 3.141592653589793 /* the literal LAMMPS uses in peri/lps */
+#define PD_CCAP 8               /* stored non-family contact candidates per particle            */
+#define PD_CBIG 512             /* a row with more is searched each step, more than this fails  */
 
 enum { PD_PMB = 0, PD_LPS = 1 };
 static const char *const pd_model_names[] = {"pmb", "lps", NULL};
@@ -125,21 +137,26 @@ typedef struct pd_state {
   ej_real *vinter; /* [n] initial sum of V_j (damage denominator)          */
   ej_real *vint;   /* [n] intact sum of V_j, always summed in row order    */
   int64_t n_bonds;
-  /* contact: hashed cell grid + Verlet list over owned + ghost particles */
-  int due; /* a rebuild is needed (set in pass 0, read atomically) */
+  /* contact: dense cell grid + Verlet list of the NON-family pairs over owned + ghost particles
+   * (family pairs are tested in the bond loop) */
+  int64_t epoch;  /* steps completed (post_step of the chunk that starts the set)        */
+  int64_t due_t;  /* epoch of the step whose pass 1 rebuilds the list (written in pass 0) */
+  int64_t grid_t; /* epoch the grid was last built in (in the critical section)          */
   ej_real rc, skin;
   ej_idx n_all_cap;
   ej_real *xcb;     /* [n] positions at the last contact build */
-  int32_t *key;     /* [3 n_all] cell coordinates              */
-  int32_t *kss;     /* [3 n_all] cell coordinates, bucket order */
-  ej_real *xss;     /* [3 n_all] positions, bucket order        */
-  uint32_t *bucket; /* [T + 1] counting-sort offsets            */
-  ej_idx *order;    /* [n_all] particles by bucket              */
-  uint32_t tmask;
-  ej_off *coff;   /* [n + 1] */
-  ej_idx *cidx;   /* [ccap] */
-  ej_real *cd;    /* [ccap] d_ij */
-  ej_off ccap;
+  ej_real *xq;      /* [4 n_all] x, y, z, s0 packed (PMB with AVX2: one load per neighbour) */
+  ej_idx xq_n;
+  /* dense cell grid over the bounding box, cells of size gh >= rc, x fastest */
+  ej_real glo[3], gh;
+  int64_t gn[3], gr;
+  size_t ncell_cap;
+  uint32_t *cstart; /* [ncell + 1] counting-sort offsets        */
+  uint32_t *cellof; /* [n_all] cell of each particle            */
+  ej_idx *order;    /* [n_all] particles in cell order          */
+  ej_real *xss;     /* [3 n_all] positions in cell order        */
+  int32_t *ccnt; /* [n] non-family pairs within rc of i at the build (> PD_CCAP: searched each step) */
+  ej_idx *cidx;  /* [n PD_CCAP] their indices, ascending */
   int64_t n_contact_builds;
   ej_err init_rc;
 } pd_state;
@@ -189,9 +206,8 @@ static ej_err pd_declare(const void *config, int dim, ej_decl *d)
 static void pd_free_arrays(pd_state *s)
 {
   ej_free(s->r0), ej_free(s->wc), ej_free(s->vinter), ej_free(s->vint);
-  ej_free(s->xcb), ej_free(s->key), ej_free(s->bucket), ej_free(s->order);
-  ej_free(s->kss), ej_free(s->xss);
-  ej_free(s->coff), ej_free(s->cidx), ej_free(s->cd);
+  ej_free(s->xcb), ej_free(s->cstart), ej_free(s->cellof), ej_free(s->order), ej_free(s->xss);
+  ej_free(s->ccnt), ej_free(s->cidx), ej_free(s->xq);
 }
 
 static void pd_destroy(void *state)
@@ -245,6 +261,7 @@ static ej_err pd_create(const void *config, ej_set *set, const ej_model *model, 
   s->failure = cfg->s00 > 0;
   s->skin = cfg->contact_skin * s->lc;
   s->rc = 1.35 * s->lc + s->skin;
+  s->grid_t = -1; /* no grid yet */
   if (!(s->lc > 0) || !isfinite(s->lc)) {
     pd_destroy(s);
     EJ_FAIL(EJ_ERR_INPUT, "set '%s': pd needs a lattice spacing (give 'lattice_spacing')", name);
@@ -360,131 +377,169 @@ static ej_err pd_init_bonds(pd_state *s, ej_set *set, const ej_nbr *nbr)
     if (im) im[i] = wvol != 0 ? 1.0 / wvol : 0.0;
   }
   s->n_bonds = nb;
+  if (PD_AVX2 && s->cfg.model == PD_PMB) {
+    const ej_idx na = ej_set_count_all(set);
+    s->xq = ej_malloc(4 * (size_t)(na ? na : 1) * sizeof *s->xq);
+    EJ_ENSURE(s->xq, EJ_ERR_MEM, "pd: out of memory");
+    s->xq_n = na;
+  }
   return EJ_OK;
 }
 
 /* ------------------------------------------------------------------ contact list */
 
-static inline uint32_t pd_hash(int32_t a, int32_t b, int32_t c, uint32_t mask)
-{
-  return ((uint32_t)a * 73856093u ^ (uint32_t)b * 19349663u ^ (uint32_t)c * 83492791u) & mask;
-}
-
-static inline int32_t pd_cell(ej_real x, ej_real inv_h)
-{
-  ej_real q = floor(x * inv_h);
-  q = q < -1e9 ? -1e9 : q > 1e9 ? 1e9 : q;
-  return (int32_t)q;
-}
-
-/* Serial: every owned i gets the particles (owned or ghost) within rc of it, in cell-scan order. */
-__attribute__((noinline)) static ej_err pd_build_contacts(pd_state *s, ej_set *set)
+/* The contact grid (serial, once per rebuild): a dense grid of cells of size gh >= rc over the
+ * bounding box of every particle (owned and ghost), counting-sorted (stable: ascending index
+ * within a cell) with a contiguous copy of the positions, so a row search reads three
+ * consecutive cells at a time, in memory order. When fragments spread the box so far that the
+ * cells would outnumber 4 n_all, the cells grow (more candidates per search, same result). */
+__attribute__((noinline)) static ej_err pd_build_grid(pd_state *s, ej_set *set)
 {
   const ej_idx n = ej_set_count(set), na = ej_set_count_all(set);
-  const ej_real *x = ej_set_field(set, "x"), *x0 = ej_set_field(set, "x0");
-  EJ_ENSURE(x && x0, EJ_ERR_INTERNAL, "set '%s': pd needs x and x0", s->set_name);
-  if (na > s->n_all_cap || !s->key) {
-    uint32_t T = 16;
-    while (T < 2u * (uint32_t)(na > 0 ? na : 1)) T <<= 1;
-    ej_free(s->key), ej_free(s->bucket), ej_free(s->order), ej_free(s->xcb), ej_free(s->coff);
-    ej_free(s->kss), ej_free(s->xss);
-    s->key = ej_malloc((size_t)(na ? na : 1) * 3 * sizeof *s->key);
-    s->kss = ej_malloc((size_t)(na ? na : 1) * 3 * sizeof *s->kss);
-    s->xss = ej_malloc((size_t)(na ? na : 1) * 3 * sizeof *s->xss);
-    s->bucket = ej_malloc(((size_t)T + 1) * sizeof *s->bucket);
+  const ej_real *x = ej_set_field(set, "x");
+  EJ_ENSURE(x, EJ_ERR_INTERNAL, "set '%s': pd needs x", s->set_name);
+  if (na > s->n_all_cap || !s->order) {
+    ej_free(s->cellof), ej_free(s->order), ej_free(s->xss);
+    s->cellof = ej_malloc((size_t)(na ? na : 1) * sizeof *s->cellof);
     s->order = ej_malloc((size_t)(na ? na : 1) * sizeof *s->order);
-    s->xcb = ej_malloc((size_t)(n ? n : 1) * 3 * sizeof *s->xcb);
-    s->coff = ej_malloc(((size_t)n + 1) * sizeof *s->coff);
-    EJ_ENSURE(s->key && s->kss && s->xss && s->bucket && s->order && s->xcb && s->coff, EJ_ERR_MEM,
-              "pd: out of memory (contact grid)");
-    s->tmask = T - 1;
+    s->xss = ej_malloc((size_t)(na ? na : 1) * 3 * sizeof *s->xss);
+    EJ_ENSURE(s->cellof && s->order && s->xss, EJ_ERR_MEM, "pd: out of memory (contact grid)");
     s->n_all_cap = na;
-    if (!s->cidx) {
-      s->ccap = (ej_off)32 * (n ? n : 1);
-      s->cidx = ej_malloc((size_t)s->ccap * sizeof *s->cidx);
-      s->cd = ej_malloc((size_t)s->ccap * sizeof *s->cd);
-      EJ_ENSURE(s->cidx && s->cd, EJ_ERR_MEM, "pd: out of memory (contact list)");
-    }
   }
-  const uint32_t T = s->tmask + 1;
-  const ej_real inv_h = 1.0 / s->rc;
+  if (!s->cidx) {
+    s->xcb = ej_malloc((size_t)(n ? n : 1) * 3 * sizeof *s->xcb);
+    s->ccnt = ej_calloc((size_t)(n ? n : 1), sizeof *s->ccnt);
+    s->cidx = ej_malloc((size_t)(n ? n : 1) * PD_CCAP * sizeof *s->cidx);
+    EJ_ENSURE(s->xcb && s->ccnt && s->cidx, EJ_ERR_MEM, "pd: out of memory (contact list)");
+  }
   const int dim = s->dim;
-  memset(s->bucket, 0, ((size_t)T + 1) * sizeof *s->bucket);
-  for (ej_idx p = 0; p < na; ++p) {
-    int32_t *kk = s->key + 3 * p;
-    kk[0] = pd_cell(x[3 * p], inv_h);
-    kk[1] = dim > 1 ? pd_cell(x[3 * p + 1], inv_h) : 0;
-    kk[2] = dim > 2 ? pd_cell(x[3 * p + 2], inv_h) : 0;
-    s->bucket[pd_hash(kk[0], kk[1], kk[2], s->tmask) + 1]++;
+  ej_real lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for (int d = 0; d < dim; ++d) lo[d] = HUGE_VAL, hi[d] = -HUGE_VAL;
+  for (ej_idx p = 0; p < na; ++p)
+    for (int d = 0; d < dim; ++d) {
+      const ej_real v = x[3 * (size_t)p + d];
+      EJ_ENSURE(isfinite(v), EJ_ERR_NUMERIC, "set '%s': pd particle %d has a non-finite position", s->set_name, (int)p);
+      lo[d] = v < lo[d] ? v : lo[d];
+      hi[d] = v > hi[d] ? v : hi[d];
+    }
+  const size_t limit = 4 * (size_t)(na ? na : 1) + 64;
+  ej_real h = s->rc;
+  size_t nc;
+  for (;;) {
+    nc = 1;
+    for (int d = 0; d < 3; ++d) {
+      s->gn[d] = d < dim && na ? (int64_t)floor((hi[d] - lo[d]) / h) + 1 : 1;
+      nc *= (size_t)s->gn[d];
+    }
+    if (nc <= limit) break;
+    h *= 1.25;
   }
-  for (uint32_t b = 0; b < T; ++b) s->bucket[b + 1] += s->bucket[b];
-  /* counting sort into bucket order, with contiguous copies of the cell keys and positions:
-   * the scan below then reads memory in order (the build was 25 % of a step loop before) */
+  s->gh = h;
+  s->gr = (int64_t)ceil(s->rc / h - 1e-9); /* cells searched either side: 2, or 1 once grown */
+  memcpy(s->glo, lo, sizeof lo);
+  if (nc + 1 > s->ncell_cap) {
+    ej_free(s->cstart);
+    s->ncell_cap = limit + 1;
+    s->cstart = ej_malloc(s->ncell_cap * sizeof *s->cstart);
+    EJ_ENSURE(s->cstart, EJ_ERR_MEM, "pd: out of memory (contact grid)");
+  }
+  memset(s->cstart, 0, (nc + 1) * sizeof *s->cstart);
+  const ej_real inv_h = 1.0 / h;
   for (ej_idx p = 0; p < na; ++p) {
-    const int32_t *kk = s->key + 3 * p;
-    const uint32_t q = s->bucket[pd_hash(kk[0], kk[1], kk[2], s->tmask)]++;
+    int64_t c = 0;
+    for (int d = dim - 1; d >= 0; --d) {
+      int64_t k = (int64_t)((x[3 * (size_t)p + d] - lo[d]) * inv_h);
+      k = k < 0 ? 0 : k >= s->gn[d] ? s->gn[d] - 1 : k;
+      c = c * s->gn[d] + k;
+    }
+    s->cellof[p] = (uint32_t)c;
+    s->cstart[c + 1]++;
+  }
+  for (size_t c = 0; c < nc; ++c) s->cstart[c + 1] += s->cstart[c];
+  for (ej_idx p = 0; p < na; ++p) {
+    const uint32_t q = s->cstart[s->cellof[p]]++;
     s->order[q] = p;
-    memcpy(s->kss + 3 * (size_t)q, kk, 3 * sizeof *kk);
     memcpy(s->xss + 3 * (size_t)q, x + 3 * (size_t)p, 3 * sizeof *x);
   }
-  for (uint32_t b = T; b > 0; --b) s->bucket[b] = s->bucket[b - 1];
-  s->bucket[0] = 0;
-  const ej_real rc2 = s->rc * s->rc, dmax = 1.35 * s->lc;
-  const int ry = dim > 1 ? 1 : 0, rz = dim > 2 ? 1 : 0;
-  const int32_t *restrict kss = s->kss;
-  const ej_real *restrict xss = s->xss;
-  ej_off nc = 0;
-  s->coff[0] = 0;
-  for (ej_idx i = 0; i < n; ++i) {
-    const int32_t *ki = s->key + 3 * i;
-    const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2];
-    for (int a = -1; a <= 1; ++a)
-      for (int b = -ry; b <= ry; ++b)
-        for (int c = -rz; c <= rz; ++c) {
-          const int32_t cx = ki[0] + a, cy = ki[1] + b, cz = ki[2] + c;
-          const uint32_t h = pd_hash(cx, cy, cz, s->tmask);
-          const uint32_t q0 = s->bucket[h], q1 = s->bucket[h + 1];
-          if (nc + (ej_off)(q1 - q0) > s->ccap) {
-            /* grows only when compaction packs more particles into rc than ever before */
-            ej_off cap = s->ccap + s->ccap / 2 + (ej_off)(q1 - q0) + 16;
-            ej_idx *ci = ej_realloc(s->cidx, (size_t)cap * sizeof *ci);
-            if (ci) s->cidx = ci;
-            ej_real *cd = ej_realloc(s->cd, (size_t)cap * sizeof *cd);
-            if (cd) s->cd = cd;
-            EJ_ENSURE(ci && cd, EJ_ERR_MEM, "pd: out of memory (contact list)");
-            s->ccap = cap;
-          }
-          ej_idx *restrict cidx = s->cidx;
-          /* branch-free append (the test fails for most candidates, unpredictably) */
-          for (uint32_t q = q0; q < q1; ++q) {
-            const int32_t *kj = kss + 3 * (size_t)q;
-            const ej_real dx = xss[3 * (size_t)q] - xi, dy = xss[3 * (size_t)q + 1] - yi, dz = xss[3 * (size_t)q + 2] - zi;
-            const ej_idx j = s->order[q];
-            const int ok = (kj[0] == cx) & (kj[1] == cy) & (kj[2] == cz) & (dx * dx + dy * dy + dz * dz < rc2) & (j != i);
-            cidx[nc] = j;
-            nc += ok;
-          }
-        }
-    for (ej_off q = s->coff[i]; q < nc; ++q) {
-      const ej_idx j = s->cidx[q];
-      const ej_real ex = x0[3 * i] - x0[3 * j], ey = x0[3 * i + 1] - x0[3 * j + 1], ez = x0[3 * i + 2] - x0[3 * j + 2];
-      const ej_real d0 = 0.9 * sqrt(ex * ex + ey * ey + ez * ez);
-      s->cd[q] = d0 < dmax ? d0 : dmax; /* d_ij = MIN(0.9 |xi|, 1.35 lc) */
-    }
-    s->coff[i + 1] = nc;
-    /* ascending j (insertion sort of a short row): the contact sum then does not depend on
-     * the cell-scan order, i.e. on when the list was built (restart, skin) */
-    for (ej_off q = s->coff[i] + 1; q < nc; ++q) {
-      const ej_idx jq = s->cidx[q];
-      const ej_real dq = s->cd[q];
-      ej_off p = q;
-      for (; p > s->coff[i] && s->cidx[p - 1] > jq; --p) s->cidx[p] = s->cidx[p - 1], s->cd[p] = s->cd[p - 1];
-      s->cidx[p] = jq, s->cd[p] = dq;
-    }
-  }
-  memcpy(s->xcb, x, (size_t)n * 3 * sizeof *x);
+  for (size_t c = nc; c > 0; --c) s->cstart[c] = s->cstart[c - 1];
+  s->cstart[0] = 0;
   s->n_contact_builds++;
   return EJ_OK;
+}
+
+/* Whether j is in i's reference family (the core's rows are sorted ascending: binary search). */
+static inline bool pd_in_family(const pd_state *s, ej_idx i, ej_idx j)
+{
+  ej_off lo = s->off[i], hi = s->off[i + 1];
+  while (lo < hi) {
+    const ej_off mid = lo + (hi - lo) / 2;
+    if (s->idx[mid] < j) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo < s->off[i + 1] && s->idx[lo] == j;
+}
+
+/* Row search of particle i in the grid, all at the positions of the build (i's in xcb, the others'
+ * in xss): the particles (owned or ghost) within rc of i that are NOT in i's family (family pairs
+ * get their contact force in the bond loop, which visits them anyway), ascending j. Stores the
+ * first cap in buf; returns the count (PD_CBIG + 1 when there are more than PD_CBIG - 1
+ * candidates). Pairs that come within d_ij <= 1.35 lc before the next rebuild were within
+ * rc = 1.35 lc + skin at the build (every particle has moved less than skin/2 since), so the same
+ * search repeated later gives the same list (an overflowing row is searched again at every step).
+ * Family test: an owned j whose reference distance is clearly inside (outside) the family radius
+ * R is (is not) in the family; the rest, and ghosts, by binary search in the core's sorted row.
+ * Reads only. */
+__attribute__((noinline)) static ej_idx pd_row_search(const pd_state *s, const ej_real *x0, ej_idx i, ej_idx *buf,
+                                                      ej_idx cap)
+{
+  const ej_real *pi = s->xcb + 3 * (size_t)i;
+  const ej_real xi = pi[0], yi = pi[1], zi = pi[2], rc2 = s->rc * s->rc;
+  const ej_real ax = x0[3 * i], ay = x0[3 * i + 1], az = x0[3 * i + 2];
+  const ej_real R = s->delta * (1 + 1e-9); /* the radius of pd_support */
+  const ej_real rin2 = 0.99 * 0.99 * R * R, rout2 = 1.01 * 1.01 * R * R;
+  const ej_idx n = s->n_rows;
+  const int64_t nx = s->gn[0], ny = s->gn[1], nz = s->gn[2], gr = s->gr;
+  const int64_t c = s->cellof[i], cx = c % nx, cy = (c / nx) % ny, cz = c / (nx * ny);
+  const ej_real *restrict xs = s->xss;
+  const ej_idx *restrict order = s->order;
+  ej_idx tmp[PD_CBIG];
+  ej_idx m = 0;
+  const int64_t xl = cx - gr > 0 ? cx - gr : 0, xh = cx + gr < nx ? cx + gr : nx - 1;
+  for (int64_t z = cz - gr; z <= cz + gr; ++z) {
+    if (z < 0 || z >= nz) continue;
+    for (int64_t y = cy - gr; y <= cy + gr; ++y) {
+      if (y < 0 || y >= ny) continue;
+      const int64_t base = (z * ny + y) * nx;
+      const uint32_t q0 = s->cstart[base + xl], q1 = s->cstart[base + xh + 1];
+      if (m + (ej_idx)(q1 - q0) >= PD_CBIG) return PD_CBIG + 1;
+      /* branch-free append: the test fails for most candidates, unpredictably */
+      for (uint32_t q = q0; q < q1; ++q) {
+        const ej_idx j = order[q];
+        const ej_real dx = xs[3 * (size_t)q] - xi, dy = xs[3 * (size_t)q + 1] - yi, dz = xs[3 * (size_t)q + 2] - zi;
+        tmp[m] = j;
+        m += (dx * dx + dy * dy + dz * dz < rc2) & (j != i);
+      }
+    }
+  }
+  ej_idx cnt = 0;
+  for (ej_idx q = 0; q < m; ++q) {
+    const ej_idx j = tmp[q];
+    if (j < n) {
+      const ej_real ex = x0[3 * (size_t)j] - ax, ey = x0[3 * (size_t)j + 1] - ay, ez = x0[3 * (size_t)j + 2] - az;
+      const ej_real e2 = ex * ex + ey * ey + ez * ez;
+      if (e2 < rin2 || (e2 < rout2 && pd_in_family(s, i, j))) continue;
+    } else if (pd_in_family(s, i, j)) {
+      continue;
+    }
+    /* insertion in ascending j: the contact sum then does not depend on the cell-scan order,
+     * i.e. on when the list was built (restart, skin) */
+    ej_idx p = cnt;
+    for (; p > 0 && tmp[p - 1] > j; --p) tmp[p] = tmp[p - 1];
+    tmp[p] = j;
+    ++cnt;
+  }
+  for (ej_idx q = 0; q < cnt && q < cap; ++q) buf[q] = tmp[q];
+  return cnt;
 }
 
 /* ------------------------------------------------------------------ passes */
@@ -502,7 +557,10 @@ static ej_err pd_ensure_ready(pd_state *s, ej_set *set, const ej_nbr *nbr)
     if (!s->ready) {
       rc = pd_init_bonds(s, set, nbr);
       s->init_rc = rc;
-      if (rc == EJ_OK) s->due = 1;
+      if (rc == EJ_OK) {
+#pragma omp atomic write seq_cst
+        s->due_t = s->epoch;
+      }
 #pragma omp atomic write seq_cst
       s->ready = 1;
     } else {
@@ -521,10 +579,11 @@ static ej_err pd_pass0(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
   EJ_TRY(pd_ensure_ready(s, set, nbr));
   const ej_real *restrict x = ej_set_field(set, "x");
   if (s->cfg.contact) {
-    int due;
+    const int64_t t = s->epoch;
+    int64_t due_t;
 #pragma omp atomic read seq_cst
-    due = s->due;
-    if (!due) {
+    due_t = s->due_t;
+    if (due_t != t) {
       const ej_real lim2 = 0.25 * s->skin * s->skin;
       bool far = false;
       for (ej_idx i = r.begin; i < r.end && !far; ++i) {
@@ -534,9 +593,24 @@ static ej_err pd_pass0(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
       }
       if (far) {
 #pragma omp atomic write seq_cst
-        s->due = 1;
+        s->due_t = t;
       }
     }
+  }
+  if (s->xq) {
+    /* positions and s0 of this step packed for pass 1; ghosts by the chunk that ends the set */
+    const ej_real *s0 = ej_set_field(set, "s0");
+    const ej_idx n = ej_set_count(set), na = ej_set_count_all(set);
+    EJ_ENSURE(s0 && na <= s->xq_n, EJ_ERR_INTERNAL, "set '%s': pd packed positions", s->set_name);
+    for (ej_idx i = r.begin; i < r.end; ++i) {
+      ej_real *q = s->xq + 4 * (size_t)i;
+      q[0] = x[3 * i], q[1] = x[3 * i + 1], q[2] = x[3 * i + 2], q[3] = s0[i];
+    }
+    if (r.end == n)
+      for (ej_idx i = n; i < na; ++i) {
+        ej_real *q = s->xq + 4 * (size_t)i;
+        q[0] = x[3 * i], q[1] = x[3 * i + 1], q[2] = x[3 * i + 2], q[3] = s0[i];
+      }
   }
   if (s->cfg.model != PD_LPS) return EJ_OK;
   ej_real *restrict theta = ej_set_field(set, "theta"), *restrict tm = ej_set_field(set, "lps_tm");
@@ -563,29 +637,37 @@ static ej_err pd_pass0(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
   return EJ_OK;
 }
 
-static ej_err pd_contact_ready(pd_state *s, ej_set *set)
+/* Pass 1 of a step whose pass 0 found a particle moved more than skin/2 since the last build (or
+ * the first step): the first chunk builds the grid (serial, O(n)), then every chunk searches the
+ * rows of its own particles (parallel; each writes only its rows). */
+static ej_err pd_contact_ready(pd_state *s, ej_set *set, ej_range r)
 {
-  int due;
+  const int64_t t = s->epoch;
+  int64_t due_t;
 #pragma omp atomic read seq_cst
-  due = s->due;
-  if (!due) return EJ_OK;
+  due_t = s->due_t;
+  if (due_t != t) return EJ_OK;
   ej_err rc = EJ_OK;
 #pragma omp critical(pd_contact_build)
   {
-    if (s->due) {
-      rc = pd_build_contacts(s, set);
-      if (rc == EJ_OK) {
-#pragma omp atomic write seq_cst
-        s->due = 0;
-      }
+    if (s->grid_t != t) {
+      rc = pd_build_grid(s, set);
+      if (rc == EJ_OK) s->grid_t = t;
     }
   }
   if (rc != EJ_OK) EJ_FAIL(rc, NULL);
+  const ej_real *x = ej_set_field(set, "x"), *x0 = ej_set_field(set, "x0");
+  EJ_ENSURE(x && x0, EJ_ERR_INTERNAL, "set '%s': pd needs x and x0", s->set_name);
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    memcpy(s->xcb + 3 * (size_t)i, x + 3 * (size_t)i, 3 * sizeof *x);
+    const ej_idx cnt = pd_row_search(s, x0, i, s->cidx + (size_t)i * PD_CCAP, PD_CCAP);
+    s->ccnt[i] = (int32_t)cnt;
+  }
   return EJ_OK;
 }
 
 typedef struct pd_args {
-  const ej_real *x, *m, *vol0, *s0, *theta, *im, *tm;
+  const ej_real *x, *x0, *m, *vol0, *s0, *theta, *im, *tm;
   ej_real *a, *s0n, *e, *wf, *vint;
   int32_t *nbk;
   const ej_off *off;
@@ -593,13 +675,14 @@ typedef struct pd_args {
   const ej_real *r0;
   ej_real *wc;
   uint8_t *flags;
+  ej_real dmax; /* contact distance cap 1.35 lc; 0 without contact */
 } pd_args;
 
 /* What a row's vector sweep returns: force density, sum of the bond energy terms (intact bonds,
  * including those that break now), the extreme stretches over the intact bonds and whether some
  * bond breaks in this evaluation. */
 typedef struct pd_row {
-  ej_real f[3], en, smin, smax, nbrk;
+  ej_real f[3], en, smin, smax, nbrk, hits;
 } pd_row;
 
 /* Bond forces of PMB (pair_peri_pmb.cpp): f_i += c V_j scale s (x_j - x_i)/r; energy per bond
@@ -614,16 +697,22 @@ static inline void pd_row_pmb(const pd_args *A, ej_idx i, bool fail, pd_row *o)
   const ej_real *restrict x = A->x, *restrict r0 = A->r0, *restrict wc = A->wc, *restrict s0 = A->s0;
   const ej_idx *restrict idx = A->idx;
   const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2], s0i = s0[i];
-  ej_real fx = 0, fy = 0, fz = 0, en = 0, smin = HUGE_VAL, smax = -HUGE_VAL, nbrk = 0;
+  const ej_real dmax = A->dmax;
+  ej_real fx = 0, fy = 0, fz = 0, en = 0, smin = HUGE_VAL, smax = -HUGE_VAL, nbrk = 0, hits = 0;
   const ej_off k0 = A->off[i], k1 = A->off[i + 1];
-#pragma omp simd reduction(+ : fx, fy, fz, en, nbrk) reduction(min : smin) reduction(max : smax)
+#pragma omp simd reduction(+ : fx, fy, fz, en, nbrk, hits) reduction(min : smin) reduction(max : smax)
   for (ej_off k = k0; k < k1; ++k) {
     const ej_idx j = idx[k];
     const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
-    const ej_real r = sqrt(dx * dx + dy * dy + dz * dz);
+    const ej_real r2 = dx * dx + dy * dy + dz * dz;
+    const ej_real r = sqrt(r2);
     const ej_real rr0 = r0[k];
     ej_real dr = r - rr0;
     dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
+    /* contact of this family pair (bonded or not), d = min(0.9 |xi|, 1.35 lc): counted here,
+     * summed by pd_contacts for the rare row with a hit */
+    const ej_real dc0 = 0.9 * rr0, dc = dc0 < dmax ? dc0 : dmax;
+    hits += r2 < dc * dc ? 1.0 : 0.0;
     const ej_real qq = 1.0 / (rr0 * r); /* unconditional: GCC does not if-convert a division */
     const ej_real q = r > 0.0 ? qq : 0.0;
     const ej_real st = r > 0.0 ? dr * r * q : -1.0;
@@ -642,8 +731,94 @@ static inline void pd_row_pmb(const pd_args *A, ej_idx i, bool fail, pd_row *o)
   }
   o->f[0] = fx, o->f[1] = fy, o->f[2] = fz;
   o->en = 0.25 * en;
-  o->smin = smin, o->smax = smax, o->nbrk = fail ? nbrk : 0.0;
+  o->smin = smin, o->smax = smax, o->nbrk = fail ? nbrk : 0.0, o->hits = hits;
 }
+
+#if PD_AVX2
+/* pd_row_pmb with AVX2 intrinsics: the same operations lane by lane (no FMA), the neighbour's
+ * x, y, z, s0 read with one 32-byte load from the packed copy xq and transposed (GCC emulates the
+ * gathers of x[3j..3j+2] and s0[j] with 16 scalar loads per 4 bonds). Only the order of the
+ * row sums differs from the portable loop (four lanes, then a fixed horizontal sum). */
+static inline void pd_row_pmb_avx2(const pd_args *A, const ej_real *xq, ej_idx i, bool fail, pd_row *o)
+{
+  const ej_real *restrict r0 = A->r0, *restrict wc = A->wc;
+  const ej_idx *restrict idx = A->idx;
+  const ej_real *qi = xq + 4 * (size_t)i;
+  const __m256d xi = _mm256_set1_pd(qi[0]), yi = _mm256_set1_pd(qi[1]), zi = _mm256_set1_pd(qi[2]);
+  const __m256d s0i = _mm256_set1_pd(qi[3]), vdmax = _mm256_set1_pd(A->dmax);
+  const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0), c09 = _mm256_set1_pd(0.9);
+  const __m256d near = _mm256_set1_pd(PD_NEAR_ZERO), sign = _mm256_set1_pd(-0.0), m1 = _mm256_set1_pd(-1.0);
+  const __m256d pinf = _mm256_set1_pd(HUGE_VAL), minf = _mm256_set1_pd(-HUGE_VAL);
+  __m256d fx = zero, fy = zero, fz = zero, en = zero, nb = zero, ht = zero, smin = pinf, smax = minf;
+  const ej_off k0 = A->off[i], k1 = A->off[i + 1];
+  ej_off k = k0;
+  for (; k + 4 <= k1; k += 4) {
+    const __m256d a0 = _mm256_loadu_pd(xq + 4 * (size_t)idx[k]), a1 = _mm256_loadu_pd(xq + 4 * (size_t)idx[k + 1]);
+    const __m256d a2 = _mm256_loadu_pd(xq + 4 * (size_t)idx[k + 2]), a3 = _mm256_loadu_pd(xq + 4 * (size_t)idx[k + 3]);
+    const __m256d t0 = _mm256_unpacklo_pd(a0, a1), t1 = _mm256_unpackhi_pd(a0, a1);
+    const __m256d t2 = _mm256_unpacklo_pd(a2, a3), t3 = _mm256_unpackhi_pd(a2, a3);
+    const __m256d xj = _mm256_permute2f128_pd(t0, t2, 0x20), yj = _mm256_permute2f128_pd(t1, t3, 0x20);
+    const __m256d zj = _mm256_permute2f128_pd(t0, t2, 0x31), s0j = _mm256_permute2f128_pd(t1, t3, 0x31);
+    const __m256d dx = _mm256_sub_pd(xj, xi), dy = _mm256_sub_pd(yj, yi), dz = _mm256_sub_pd(zj, zi);
+    const __m256d r2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)), _mm256_mul_pd(dz, dz));
+    const __m256d r = _mm256_sqrt_pd(r2);
+    const __m256d rr0 = _mm256_loadu_pd(r0 + k);
+    __m256d dr = _mm256_sub_pd(r, rr0);
+    dr = _mm256_andnot_pd(_mm256_cmp_pd(_mm256_andnot_pd(sign, dr), near, _CMP_LT_OQ), dr);
+    const __m256d dc = _mm256_min_pd(_mm256_mul_pd(c09, rr0), vdmax);
+    ht = _mm256_add_pd(ht, _mm256_and_pd(_mm256_cmp_pd(r2, _mm256_mul_pd(dc, dc), _CMP_LT_OQ), one));
+    const __m256d qq = _mm256_div_pd(one, _mm256_mul_pd(rr0, r));
+    const __m256d pos = _mm256_cmp_pd(r, zero, _CMP_GT_OQ);
+    const __m256d q = _mm256_and_pd(pos, qq);
+    const __m256d st = _mm256_blendv_pd(m1, _mm256_mul_pd(_mm256_mul_pd(dr, r), q), pos);
+    const __m256d w = _mm256_loadu_pd(wc + k);
+    const __m256d fb = _mm256_mul_pd(_mm256_mul_pd(w, dr), q);
+    fx = _mm256_add_pd(fx, _mm256_mul_pd(dx, fb));
+    fy = _mm256_add_pd(fy, _mm256_mul_pd(dy, fb));
+    fz = _mm256_add_pd(fz, _mm256_mul_pd(dz, fb));
+    en = _mm256_add_pd(en, _mm256_mul_pd(_mm256_mul_pd(w, st), dr));
+    const __m256d al = _mm256_cmp_pd(w, zero, _CMP_GT_OQ);
+    const __m256d lim = _mm256_min_pd(s0i, s0j);
+    nb = _mm256_add_pd(nb, _mm256_and_pd(_mm256_and_pd(al, _mm256_cmp_pd(st, lim, _CMP_GT_OQ)), one));
+    smin = _mm256_min_pd(_mm256_blendv_pd(pinf, st, al), smin);
+    smax = _mm256_max_pd(_mm256_blendv_pd(minf, st, al), smax);
+  }
+  double v[8][4];
+  _mm256_storeu_pd(v[0], fx), _mm256_storeu_pd(v[1], fy), _mm256_storeu_pd(v[2], fz), _mm256_storeu_pd(v[3], en);
+  _mm256_storeu_pd(v[4], nb), _mm256_storeu_pd(v[5], ht), _mm256_storeu_pd(v[6], smin), _mm256_storeu_pd(v[7], smax);
+  ej_real sfx = (v[0][0] + v[0][1]) + (v[0][2] + v[0][3]), sfy = (v[1][0] + v[1][1]) + (v[1][2] + v[1][3]);
+  ej_real sfz = (v[2][0] + v[2][1]) + (v[2][2] + v[2][3]), sen = (v[3][0] + v[3][1]) + (v[3][2] + v[3][3]);
+  ej_real snb = (v[4][0] + v[4][1]) + (v[4][2] + v[4][3]), sht = (v[5][0] + v[5][1]) + (v[5][2] + v[5][3]);
+  ej_real mn = v[6][0], mx = v[7][0];
+  for (int l = 1; l < 4; ++l) mn = v[6][l] < mn ? v[6][l] : mn, mx = v[7][l] > mx ? v[7][l] : mx;
+  /* the remaining bonds: the portable loop's operations */
+  const ej_real xs = qi[0], ys = qi[1], zs = qi[2], s0s = qi[3], dmax = A->dmax;
+  for (; k < k1; ++k) {
+    const ej_real *qj = xq + 4 * (size_t)idx[k];
+    const ej_real dx = qj[0] - xs, dy = qj[1] - ys, dz = qj[2] - zs;
+    const ej_real r2 = dx * dx + dy * dy + dz * dz;
+    const ej_real r = sqrt(r2);
+    const ej_real rr0 = r0[k];
+    ej_real dr = r - rr0;
+    dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
+    const ej_real dc0 = 0.9 * rr0, dc = dc0 < dmax ? dc0 : dmax;
+    sht += r2 < dc * dc ? 1.0 : 0.0;
+    const ej_real q = r > 0.0 ? 1.0 / (rr0 * r) : 0.0;
+    const ej_real st = r > 0.0 ? dr * r * q : -1.0;
+    const ej_real w = wc[k];
+    const ej_real fb = w * dr * q;
+    sfx += dx * fb, sfy += dy * fb, sfz += dz * fb;
+    sen += w * st * dr;
+    const int al = w > 0.0;
+    const ej_real lim = s0s < qj[3] ? s0s : qj[3];
+    snb += (al & (st > lim)) ? 1.0 : 0.0;
+    if (al) mn = st < mn ? st : mn, mx = st > mx ? st : mx;
+  }
+  o->f[0] = sfx, o->f[1] = sfy, o->f[2] = sfz;
+  o->en = 0.25 * sen;
+  o->smin = mn, o->smax = mx, o->nbrk = fail ? snb : 0.0, o->hits = sht;
+}
+#endif
 
 /* Bond forces of LPS (pair_peri_lps.cpp): with w r0 = 1 for w = 1/r0,
  *   rk = (3K - 5G) V_j scale (theta_i/m_i + theta_j/m_j) + 15 G V_j scale (1/m_i + 1/m_j) dr / r0;
@@ -657,16 +832,20 @@ static inline void pd_row_lps(const pd_state *s, const pd_args *A, ej_idx i, boo
   const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2], s0i = s0[i];
   const ej_real A35 = 3.0 * s->K - 5.0 * s->G, G15 = 15.0 * s->G;
   const ej_real ti = tm[i], imi = im[i], th3 = A->theta[i] / 3.0, gi = G15 * imi;
-  ej_real fx = 0, fy = 0, fz = 0, en = 0, smin = HUGE_VAL, smax = -HUGE_VAL, nbrk = 0;
+  const ej_real dmax = A->dmax;
+  ej_real fx = 0, fy = 0, fz = 0, en = 0, smin = HUGE_VAL, smax = -HUGE_VAL, nbrk = 0, hits = 0;
   const ej_off k0 = A->off[i], k1 = A->off[i + 1];
-#pragma omp simd reduction(+ : fx, fy, fz, en, nbrk) reduction(min : smin) reduction(max : smax)
+#pragma omp simd reduction(+ : fx, fy, fz, en, nbrk, hits) reduction(min : smin) reduction(max : smax)
   for (ej_off k = k0; k < k1; ++k) {
     const ej_idx j = idx[k];
     const ej_real dx = x[3 * j] - xi, dy = x[3 * j + 1] - yi, dz = x[3 * j + 2] - zi;
-    const ej_real r = sqrt(dx * dx + dy * dy + dz * dz);
+    const ej_real r2 = dx * dx + dy * dy + dz * dz;
+    const ej_real r = sqrt(r2);
     const ej_real rr0 = r0[k];
     ej_real dr = r - rr0;
     dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
+    const ej_real dc0 = 0.9 * rr0, dc = dc0 < dmax ? dc0 : dmax;
+    hits += r2 < dc * dc ? 1.0 : 0.0;
     const ej_real inv_r0 = 1.0 / rr0;
     const ej_real w = wc[k];
     const ej_real rk = A35 * w * (ti + tm[j]) + G15 * w * (imi + im[j]) * dr * inv_r0;
@@ -687,7 +866,7 @@ static inline void pd_row_lps(const pd_state *s, const pd_args *A, ej_idx i, boo
   }
   o->f[0] = fx, o->f[1] = fy, o->f[2] = fz;
   o->en = 0.5 * en + 0.5 * s->K * A->theta[i] * A->theta[i];
-  o->smin = smin, o->smax = smax, o->nbrk = fail ? nbrk : 0.0;
+  o->smin = smin, o->smax = smax, o->nbrk = fail ? nbrk : 0.0, o->hits = hits;
 }
 
 /* A row where some bond breaks (rare): mark the breaking bonds broken in the core's flags (bit 0,
@@ -740,54 +919,64 @@ static void pd_settle(const pd_state *s, const pd_args *A, ej_idx i, pd_row *o, 
 }
 
 /* Contact (pair_peri_*.cpp "short-range forces"): force density on i 15 c_s V_j (d - r)/delta
- * away from j; energy per side 15 c_s V_j (d - r)^2 / (4 delta). Rows are sorted by j, so the
- * sum does not depend on when the list was built (restart, skin). */
-static inline ej_real pd_contacts(const pd_state *s, const pd_args *A, ej_idx i, ej_real f[3])
+ * away from j; energy per side 15 c_s V_j (d - r)^2 / (4 delta); d = min(0.9 |xi|, 1.35 lc).
+ * Family pairs (only when the bond loop counted a hit) in row order, then the non-family pairs of
+ * the list, ascending j: the sum does not depend on when the list was built (restart, skin). */
+static inline void pd_contact_pair(const pd_args *A, ej_real k15, ej_idx i, ej_idx j, ej_real d, ej_real acc[4])
 {
-  const ej_real *restrict x = A->x, *restrict vol0 = A->vol0;
-  const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2];
-  const ej_real k15 = 15.0 * s->c_contact / s->delta;
-  const ej_idx *restrict cidx = s->cidx;
-  const ej_real *restrict cd = s->cd;
-  const ej_off q0 = s->coff[i], q1 = s->coff[i + 1];
-  /* vector sweep for the (usual) row without a pair in contact; the force sum below runs over the
-   * pairs in contact only, in ascending j, so it is the same whatever else the list holds */
-  int hits = 0;
-#pragma omp simd reduction(+ : hits)
-  for (ej_off q = q0; q < q1; ++q) {
-    const ej_idx j = cidx[q];
-    const ej_real dx = xi - x[3 * j], dy = yi - x[3 * j + 1], dz = zi - x[3 * j + 2];
-    hits += dx * dx + dy * dy + dz * dz < cd[q] * cd[q];
+  const ej_real *x = A->x;
+  const ej_real dx = x[3 * i] - x[3 * j], dy = x[3 * i + 1] - x[3 * j + 1], dz = x[3 * i + 2] - x[3 * j + 2];
+  const ej_real rsq = dx * dx + dy * dy + dz * dz;
+  if (rsq >= d * d) return;
+  const ej_real r = sqrt(rsq), dr = r - d;
+  const ej_real rk = k15 * A->vol0[j] * dr;
+  const ej_real fp = r > 0.0 ? -rk / r : 0.0;
+  acc[0] += dx * fp, acc[1] += dy * fp, acc[2] += dz * fp;
+  acc[3] += 0.25 * rk * dr;
+}
+
+__attribute__((noinline)) static ej_err pd_contacts(const pd_state *s, const pd_args *A, ej_idx i, bool family, ej_real f[3], ej_real *en)
+{
+  const ej_real k15 = 15.0 * s->c_contact / s->delta, dmax = A->dmax;
+  ej_real acc[4] = {0, 0, 0, 0};
+  if (family)
+    for (ej_off k = A->off[i]; k < A->off[i + 1]; ++k) {
+      const ej_real dc0 = 0.9 * A->r0[k];
+      pd_contact_pair(A, k15, i, A->idx[k], dc0 < dmax ? dc0 : dmax, acc);
+    }
+  ej_idx buf[PD_CBIG];
+  const ej_idx *list = s->cidx + (size_t)i * PD_CCAP;
+  ej_idx cnt = s->ccnt[i];
+  if (cnt > PD_CCAP) { /* rare: compacted far beyond the lattice density; search the grid */
+    cnt = pd_row_search(s, A->x0, i, buf, PD_CBIG);
+    EJ_ENSURE(cnt < PD_CBIG, EJ_ERR_NUMERIC,
+              "set '%s': pd particle %d has %d non-family particles within the contact reach (at most %d)",
+              s->set_name, (int)i, (int)cnt, PD_CBIG - 1);
+    list = buf;
   }
-  ej_real fx = 0, fy = 0, fz = 0, en = 0;
-  if (!hits) {
-    f[0] = f[1] = f[2] = 0.0;
-    return 0.0;
+  const ej_real *x = A->x, *x0 = A->x0;
+  for (ej_idx q = 0; q < cnt; ++q) {
+    const ej_idx j = list[q];
+    const ej_real dx = x[3 * i] - x[3 * j], dy = x[3 * i + 1] - x[3 * j + 1], dz = x[3 * i + 2] - x[3 * j + 2];
+    if (dx * dx + dy * dy + dz * dz >= dmax * dmax) continue;
+    const ej_real ex = x0[3 * i] - x0[3 * j], ey = x0[3 * i + 1] - x0[3 * j + 1], ez = x0[3 * i + 2] - x0[3 * j + 2];
+    const ej_real d0 = 0.9 * sqrt(ex * ex + ey * ey + ez * ez);
+    pd_contact_pair(A, k15, i, j, d0 < dmax ? d0 : dmax, acc);
   }
-  for (ej_off q = q0; q < q1; ++q) {
-    const ej_idx j = s->cidx[q];
-    const ej_real dx = xi - x[3 * j], dy = yi - x[3 * j + 1], dz = zi - x[3 * j + 2];
-    const ej_real rsq = dx * dx + dy * dy + dz * dz, d = s->cd[q];
-    if (rsq >= d * d) continue;
-    const ej_real r = sqrt(rsq), dr = r - d;
-    const ej_real rk = k15 * vol0[j] * dr;
-    const ej_real fp = r > 0.0 ? -rk / r : 0.0;
-    fx += dx * fp, fy += dy * fp, fz += dz * fp;
-    en += 0.25 * rk * dr;
-  }
-  f[0] = fx, f[1] = fy, f[2] = fz;
-  return en;
+  f[0] = acc[0], f[1] = acc[1], f[2] = acc[2];
+  *en = acc[3];
+  return EJ_OK;
 }
 
 static ej_err pd_pass1(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
 {
-  if (s->cfg.contact) EJ_TRY(pd_contact_ready(s, set));
+  if (s->cfg.contact) EJ_TRY(pd_contact_ready(s, set, r));
   pd_args A = {.x = ej_set_field(set, "x"), .m = ej_set_field(set, "m"), .vol0 = ej_set_field(set, "vol0"),
                .s0 = ej_set_field(set, "s0"), .theta = ej_set_field(set, "theta"), .im = ej_set_field(set, "lps_im"),
                .tm = ej_set_field(set, "lps_tm"), .a = ej_set_field(set, "a"), .s0n = ej_set_field(set, "s0_new"),
                .e = ej_set_field(set, "e_pd"), .wf = ej_set_field(set, "w_frac"), .vint = s->vint,
                .nbk = ej_set_field_int(set, "n_broken"), .off = nbr->off, .idx = nbr->idx, .r0 = s->r0, .wc = s->wc,
-               .flags = s->flags};
+               .flags = s->flags, .x0 = ej_set_field(set, "x0"), .dmax = s->cfg.contact ? 1.35 * s->lc : 0.0};
   EJ_ENSURE(A.x && A.m && A.vol0 && A.s0 && A.a && A.s0n && A.e && A.wf && A.nbk, EJ_ERR_INTERNAL,
             "set '%s': pd fields missing", s->set_name);
   const bool lps = s->cfg.model == PD_LPS, contact = s->cfg.contact, fail = s->failure;
@@ -801,12 +990,22 @@ static ej_err pd_pass1(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
       if (fail) pd_row_lps(s, &A, i, true, &o);
       else pd_row_lps(s, &A, i, false, &o);
     } else {
+#if PD_AVX2
+      if (s->xq) {
+        if (fail) pd_row_pmb_avx2(&A, s->xq, i, true, &o);
+        else pd_row_pmb_avx2(&A, s->xq, i, false, &o);
+      } else
+#endif
       if (fail) pd_row_pmb(&A, i, true, &o);
       else pd_row_pmb(&A, i, false, &o);
     }
     if (o.nbrk > 0.0) pd_settle(s, &A, i, &o, &e_brk, &nbroken);
     ej_real en = o.en;
-    if (contact) en += pd_contacts(s, &A, i, fc);
+    if (contact) {
+      ej_real ec = 0;
+      EJ_TRY(pd_contacts(s, &A, i, o.hits > 0.0, fc, &ec));
+      en += ec;
+    }
     /* a = F/m with F = V_i f: the force density over the density */
     const ej_real inv_rho = A.vol0[i] / A.m[i];
     A.a[3 * i] += (o.f[0] + fc[0]) * inv_rho;
@@ -844,6 +1043,7 @@ static ej_err pd_post_step(void *state, ej_set *set, ej_range r)
   const ej_real *s0n = ej_set_field(set, "s0_new");
   EJ_ENSURE(s0 && dmg && s0n, EJ_ERR_INTERNAL, "set '%s': pd fields missing", s->set_name);
   if (!s->ready) return EJ_OK;
+  if (r.begin == 0) s->epoch++; /* read in the next step's passes, after the barrier */
   for (ej_idx i = r.begin; i < r.end; ++i) {
     s0[i] = s0n[i];
     dmg[i] = s->vinter[i] != 0.0 ? 1.0 - s->vint[i] / s->vinter[i] : 0.0;
