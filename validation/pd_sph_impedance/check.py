@@ -3,9 +3,12 @@
 (tlpd, elastic, impedance Z1) crosses a PD-SPH interface into a fluid (sph, linear polynomial
 EOS, impedance Z2). Linear acoustics: transmitted stress T = 2 Z2 / (Z1 + Z2) and reflected
 R = (Z2 - Z1) / (Z1 + Z2) times the incident stress. Tolerance 3 % on T and R.
+Default: pd_sph form pairwise (pair_stress owned), fluid renormalize: false, 1D, dx = 1 mm.
+--dim 3 runs a slab (cross-section 4 x 4 spacings, periodic in y and z).
 
-    /usr/bin/python3 validation/pd_sph_impedance/check.py [--build build] [--form pairwise|paper]
-                                                          [--dx 1e-3] [--short]
+    /usr/bin/python3 validation/pd_sph_impedance/check.py [--build build] [--dim 1|3] [--dx 1e-3]
+        [--form pairwise|paper|consistent] [--extra ', pair_stress: both'] [--fluid-extra '']
+        [--left sph]  (SPH-SPH control through `continuum`)
 """
 import argparse
 import os
@@ -20,27 +23,44 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 
 
-def scene(out, dx, rho2, K2, form, t_end, left="tlpd", alpha=0.0):
+def scene(out, dx, rho2, K2, form, t_end, left="tlpd", alpha=0.0, extra="", fluid_extra="", dim=1, nt=4):
+    """1D bar, or (dim 3) a slab: cross-section nt x nt spacings, periodic in y and z."""
     # cos^2 velocity pulse of amplitude v0 and width W centred at xc in the bar [0, 0.5]
     v0, W, xc = 1.0, 0.1, 0.35
+    wt = nt * dx
+
+    def box(a, b):
+        if dim == 1:
+            return f"{{box: {{min: [{a:.9g}], max: [{b:.9g}]}}}}"
+        return f"{{box: {{min: [{a:.9g}, 0, 0], max: [{b:.9g}, {wt:.9g}, {wt:.9g}]}}}}"
+
+    def vec(vx):
+        return f"[{vx:.9g}]" if dim == 1 else f"[{vx:.9g}, 0, 0]"
+
     lines = []
     n = int(round(W / dx))
     for k in range(n):
         a, b = xc - W / 2 + k * dx, xc - W / 2 + (k + 1) * dx
         xm = 0.5 * (a + b)
         v = v0 * np.cos(np.pi * (xm - xc) / W) ** 2
-        lines.append(f"      - {{region: {{box: {{min: [{a:.9g}], max: [{b:.9g}]}}}}, velocity: [{v:.9g}]}}")
+        lines.append(f"      - {{region: {box(a, b)}, velocity: {vec(v)}}}")
     init = "\n".join(lines)
     # the paper's coupling goes with the paper's PD force (000 Eq 9, difference form)
-    ff = "\n    force_form: difference" if (left == "tlpd" and form == "paper") else ""
+    ff = "\n    force_form: difference" if (left == "tlpd" and form in ("paper", "consistent")) else ""
     if left == "tlpd":
         rock = "{model: elastic, rho0: 2000, E: 1e9, nu: 0.0}"
-        inter = f"{{model: pd_sph, sets: [bar, fluid], form: {form}, alpha: {alpha}, beta: 0.0}}"
+        inter = f"{{model: pd_sph, sets: [bar, fluid], form: {form}, alpha: {alpha}, beta: 0.0{extra}}}"
     else:  # the same impedance as a fluid: the SPH-SPH control case through `continuum`
         rock = "{rho0: 2000, eos: {model: polynomial, rho0: 2000, C1: 1e9}}"
-        inter = f"{{model: continuum, sets: [bar, fluid], alpha: {alpha}, beta: 0.0}}"
+        inter = f"{{model: continuum, sets: [bar, fluid], alpha: {alpha}, beta: 0.0{extra}}}"
+    fx = "".join(chr(10) + "    " + q.strip() for q in fluid_extra.split(";") if q.strip())
+    bx = fx if left == "sph" else ""
+    bnd = "" if dim == 1 else f"""boundaries:
+  - periodic: {{axis: y, min: 0, max: {wt:.9g}}}
+  - periodic: {{axis: z, min: 0, max: {wt:.9g}}}
+"""
     return f"""ejecta: 1
-dimension: 1
+dimension: {dim}
 time: {{end: {t_end}, cfl: 0.4}}
 output: {{file: {out}, every: 0.05 ms, fields: [v, {'stress, ' if left == 'tlpd' else ''}p, rho]}}
 materials:
@@ -49,8 +69,8 @@ materials:
 sets:
   bar:
     method: {left}
-    material: rock{ff}
-    shape: {{box: {{min: [0], max: [0.5]}}}}
+    material: rock{ff}{bx}
+    shape: {box(0, 0.5)}
     spacing: {dx}
     initial:
 {init}
@@ -58,15 +78,15 @@ sets:
     method: sph
     material: fluid
     alpha: {alpha}
-    beta: 0.0
-    shape: {{box: {{min: [0.5], max: [1.0]}}}}
+    beta: 0.0{fx}
+    shape: {box(0.5, 1.0)}
     spacing: {dx}
 interactions:
   - {inter}
-""", v0
+{bnd}""", v0
 
 
-def run_case(build, dx, rho2, K2, form, tmp, left="tlpd"):
+def run_case(build, dx, rho2, K2, form, tmp, left="tlpd", extra="", fluid_extra="", dim=1):
     Z1 = np.sqrt(1e9 * 2000.0)
     Z2 = np.sqrt(K2 * rho2)
     c1 = np.sqrt(1e9 / 2000.0)
@@ -75,10 +95,10 @@ def run_case(build, dx, rho2, K2, form, tmp, left="tlpd"):
     t_meas = t_hit + 0.2 / c2  # transmitted pulse 0.2 m into the fluid
     t_meas = min(t_meas, t_hit + 0.12 / c1)  # reflected pulse still clear of the free-end echo
     out = os.path.join(tmp, f"imp_{form}_{rho2}.h5")
-    text, v0 = scene(out, dx, rho2, K2, form, f"{t_meas:.6g}", left)
+    text, v0 = scene(out, dx, rho2, K2, form, f"{t_meas:.6g}", left, extra=extra, fluid_extra=fluid_extra, dim=dim)
     sp = os.path.join(tmp, "s.yaml")
     open(sp, "w").write(text)
-    r = subprocess.run([os.path.join(build, "bin", "ejecta"), "run", sp, "--threads", "1"], capture_output=True, text=True)
+    r = subprocess.run([os.path.join(build, "bin", "ejecta"), "run", sp, "--threads", os.environ.get("EJ_THREADS", "1")], capture_output=True, text=True)
     if r.returncode != 0:
         sys.exit(f"ejecta failed:\n{r.stderr}")
     with h5py.File(out, "r") as f:
@@ -116,12 +136,17 @@ def run_case(build, dx, rho2, K2, form, tmp, left="tlpd"):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
-    ap.add_argument("--form", default="pairwise", choices=["pairwise", "paper"])
+    ap.add_argument("--form", default="pairwise", choices=["pairwise", "paper", "consistent"])
     ap.add_argument("--dx", type=float, default=1e-3)
     ap.add_argument("--left", default="tlpd", choices=["tlpd", "sph"],
                     help="method of the left bar: tlpd (the PD-SPH test) or sph (SPH-SPH control through continuum)")
-    ap.add_argument("--png", default=os.path.join(HERE, "impedance.png"))
+    ap.add_argument("--extra", default="", help="extra interaction options, e.g. ', pair_stress: both'")
+    ap.add_argument("--dim", type=int, default=1, choices=[1, 3], help="1: bar; 3: slab, periodic in y and z")
+    ap.add_argument("--fluid-extra", default="renormalize: false", help="extra options of the fluid set, 'key: value' pairs separated by ';', e.g. 'renormalize: false'")
+    ap.add_argument("--png", default=None, help="default impedance.png (1D) or impedance_3d.png (3D) here")
     a = ap.parse_args()
+    if a.png is None:
+        a.png = os.path.join(HERE, "impedance.png" if a.dim == 1 else "impedance_3d.png")
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -130,7 +155,7 @@ def main():
     fig, axs = plt.subplots(1, len(cases), figsize=(11, 4))
     with tempfile.TemporaryDirectory() as tmp:
         for ax, (rho2, K2) in zip(axs, cases):
-            r = run_case(a.build, a.dx, rho2, K2, a.form, tmp, a.left)
+            r = run_case(a.build, a.dx, rho2, K2, a.form, tmp, a.left, a.extra, a.fluid_extra, a.dim)
             eT = r["T"] / r["T_exp"] - 1
             eR = r["R"] / r["R_exp"] - 1
             ok &= abs(eT) < 0.03 and abs(eR) < 0.03
@@ -146,7 +171,8 @@ def main():
                          fontsize=9)
             ax.set_xlabel("x (m)")
             ax.legend(fontsize=7)
-    fig.suptitle(f"PD-SPH interface, form {a.form}: pulse after crossing (lines: exact T, R)")
+    fig.suptitle(f"PD-SPH interface ({a.dim}D, dx = {a.dx * 1e3:g} mm), form {a.form}{a.extra}: pulse after crossing "
+                 "(lines: exact T, R)", fontsize=10)
     fig.tight_layout()
     fig.savefig(a.png, dpi=110)
     print("PASS" if ok else "FAIL", f"(tolerance 3 %), figure {a.png}")

@@ -11,11 +11,13 @@
 typedef struct continuum_config {
   int kernel;
   int form;
+  int continuity;
   ej_real alpha, beta, eta, h_factor;
 } continuum_config;
 
 static const char *const continuum_kernels[] = {"cubic_spline", "wendland_c2", NULL};
 static const char *const continuum_forms[] = {"volume", "standard", NULL};
+static const char *const continuum_continuity[] = {"volume", "blend", NULL};
 
 static const ej_param continuum_params[] = {
     EJ_PARAM_ENUM(continuum_config, kernel, continuum_kernels, "cubic_spline",
@@ -23,14 +25,19 @@ static const ej_param continuum_params[] = {
     EJ_PARAM_ENUM(continuum_config, form, continuum_forms, "volume",
                   "Pair form: volume, (sigma_i + sigma_j)/(rho_i rho_j) (Colagrossi & Landrini 2003; robust at "
                   "density ratios over 1000), or standard, sigma_i/rho_i^2 + sigma_j/rho_j^2."),
+    EJ_PARAM_ENUM(continuum_config, continuity, continuum_continuity, "volume",
+                  "Interface continuity: volume, rho_i sum_j (m_j/rho_j) v_ij.grad W (001 Eq 3), or blend, the "
+                  "density-ratio-adaptive blend of 001 Eq 4 (Liu, Zhang & Feng 2017): psi = 1/ln(rho_max/rho_min) "
+                  "over the support, weight (rho_i + psi rho_j)/((1 + psi) rho_j) on m_j v_ij.grad W."),
     EJ_PARAM_REAL(continuum_config, alpha, "1", 1.0, 0, 10, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Monaghan artificial viscosity, linear coefficient, on approaching interface pairs."),
     EJ_PARAM_REAL(continuum_config, beta, "1", 2.0, 0, 20, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Monaghan artificial viscosity, quadratic coefficient."),
     EJ_PARAM_REAL(continuum_config, eta, "1", 0.1, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX | EJ_PF_MIN_OPEN,
                   "Viscosity singularity guard: eta^2 hbar^2 is added to r^2."),
-    EJ_PARAM_REAL(continuum_config, h_factor, "1", 1.3, 0.5, 3, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
-                  "Smoothing length of a particle whose method publishes no 'h', in initial spacings."),
+    EJ_PARAM_REAL(continuum_config, h_factor, "1", 0, 0, 3, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Smoothing length of a particle whose method publishes no 'h', in initial spacings; 0: the "
+                  "h/spacing ratio of the other particle of each pair when it has an h, else 1.3."),
     {0}};
 
 typedef struct continuum_state {
@@ -44,7 +51,8 @@ static ej_err continuum_create(const void *config, ej_set *a, ej_set *b, void **
   EJ_ENSURE(b && a != b, EJ_ERR_INTERNAL, "continuum: the scene check lets only two different sets through");
   continuum_state *s = ej_calloc(1, sizeof *s);
   EJ_ENSURE(s, EJ_ERR_MEM, "out of memory");
-  s->P = (cpl_params){.kernel = c->kernel, .form = c->form, .alpha = c->alpha, .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor};
+  s->P = (cpl_params){.kernel = c->kernel, .form = c->form, .continuity = c->continuity, .alpha = c->alpha,
+                      .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor};
   const ej_err rc = cpl_dt_init(&s->dt, a, b);
   if (rc != EJ_OK) {
     ej_free(s);

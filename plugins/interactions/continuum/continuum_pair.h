@@ -17,7 +17,11 @@
  *     S_ij = (sigma_i + sigma_j) / (rho_i rho_j) - Pi_ij I,  E_i = sigma_i / (rho_i rho_j) - Pi_ij/2 I
  *   dv_i/dt   += sum_j m_j S_ij grad_i W
  *   de_i/dt   += -sum_j m_j E_i : ((v_i - v_j) (x) grad_i W)
- *   drho_i/dt += rho_i sum_j (m_j / rho_j) (v_i - v_j) . grad_i W
+ *   drho_i/dt += rho_i sum_j (m_j / rho_j) (v_i - v_j) . grad_i W      (001 Eq 3), or with
+ *   continuity blend (001 Eq 4, Liu, Zhang & Feng 2017), the density-ratio-adaptive blend of the
+ *   mass form (Eq 2) and Eq 3:
+ *   drho_i/dt += sum_j (rho_i + psi_i rho_j) / ((1 + psi_i) rho_j) m_j (v_i - v_j) . grad_i W,
+ *   psi_i = 1 / ln(rho_max / rho_min) over i's support (this list's part of it)
  * Pi_ij is Monaghan's (1992) viscosity on approaching pairs. S_ij is symmetric in i and j and
  * grad_j W = -grad_i W, so the force on j is minus the force on i (momentum to round-off), and
  * E_i + E_j = S_ij, so the work of the pair equals minus the change of the two internal energies
@@ -43,9 +47,12 @@ typedef struct cpl_side {
 
 enum { CPL_FORM_VOLUME = 0, CPL_FORM_STANDARD = 1 };
 
+enum { CPL_CONT_VOLUME = 0, CPL_CONT_BLEND = 1 };
+
 typedef struct cpl_params {
   int kernel;
   int form;
+  int continuity; /* CPL_CONT_VOLUME (Eq 3 of 001) or CPL_CONT_BLEND (001 Eq 4) */
   ej_real alpha, beta, eta;
   ej_real h_factor;
 } cpl_params;
@@ -94,12 +101,27 @@ static inline void cpl_stress(const cpl_side *s, ej_idx i, ej_real sig[6])
   }
 }
 
-static inline ej_real cpl_h(const cpl_side *s, ej_idx i)
+static inline ej_real cpl_dx(const cpl_side *s, ej_idx i)
 {
-  if (s->h) return s->h[i];
   const ej_real v = s->vol0[i];
-  const ej_real dx = s->dim == 1 ? v : s->dim == 2 ? sqrt(v) : cbrt(v);
-  return s->h_fallback * dx;
+  return s->dim == 1 ? v : s->dim == 2 ? sqrt(v) : cbrt(v);
+}
+
+/* hbar of the pair (i of side a, j of side b). A particle of a method without an 'h' field gets
+ * h_factor times its spacing, or, with h_factor 0 (the default), the h/spacing ratio of the
+ * other particle of the pair when that one has an h (so that an SPH set's kernel sums run at
+ * the same h/dx across the interface: sph uses 2 in 1D, 1.5 in 2D, 1.3 in 3D), else 1.3.
+ * Symmetric in the pair, so pair forces stay equal and opposite. */
+static inline ej_real cpl_hbar(const cpl_side *a, ej_idx i, const cpl_side *b, ej_idx j)
+{
+  ej_real hi, hj;
+  if (a->h) hi = a->h[i];
+  else if (a->h_fallback > 0) hi = a->h_fallback * cpl_dx(a, i);
+  else hi = (b->h ? b->h[j] / cpl_dx(b, j) : 1.3) * cpl_dx(a, i);
+  if (b->h) hj = b->h[j];
+  else if (b->h_fallback > 0) hj = b->h_fallback * cpl_dx(b, j);
+  else hj = (a->h ? a->h[i] / cpl_dx(a, i) : 1.3) * cpl_dx(b, j);
+  return 0.5 * (hi + hj);
 }
 
 static inline ej_real cpl_c(const cpl_side *s, ej_idx i) { return s->c ? s->c[i] : s->c_fallback; }
@@ -110,23 +132,41 @@ static inline ej_real cpl_c(const cpl_side *s, ej_idx i) { return s->c ? s->c[i]
  * operator already carries its free-surface response) uses only the fluid's stress: from the
  * solid's side wa = 0, wb = 1, ea = 0; from the fluid's side wa = 1, wb = 0, ea = 1. Both sides
  * then compute the same S_ij, and E_a + E_b = S_ij still holds. */
-static inline void cpl_gather_w(const cpl_params *P, const cpl_side *A, const cpl_side *B, const ej_nbr *ab,
-                                ej_range r, ej_real wa, ej_real wb, ej_real ea)
+static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const cpl_side *B, const ej_nbr *ab,
+                                 ej_range r, ej_real wa, ej_real wb, ej_real ea, ej_real wc)
 {
   const int dim = A->dim;
   const ej_real sigma_k = sph_kernel_sigma(P->kernel, dim);
   for (ej_idx i = r.begin; i < r.end; ++i) {
     ej_real si[6];
     cpl_stress(A, i, si);
-    const ej_real rho_i = A->rho[i], irho2_i = 1.0 / (rho_i * rho_i), h_i = cpl_h(A, i), c_i = cpl_c(A, i);
+    const ej_real rho_i = A->rho[i], irho2_i = 1.0 / (rho_i * rho_i), c_i = cpl_c(A, i);
     (void)irho2_i;
-    ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0;
+    ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0, drho_m = 0;
+    /* 001 Eq 4 (Liu, Zhang & Feng 2017): psi_i = 1 / ln k_i, k_i = rho_max / rho_min over i and
+     * the particles of its support that this list sees (the other set's: across a material
+     * interface they carry the density jump); k_i = 1 (psi infinite) is Eq 2, the mass form. */
+    ej_real psi = -1; /* < 0: the volume form (Eq 3) */
+    if (P->continuity == CPL_CONT_BLEND) {
+      ej_real rmin = rho_i, rmax = rho_i;
+      for (ej_off k = ab->off[i]; k < ab->off[i + 1]; ++k) {
+        const ej_idx j = ab->idx[k];
+        const ej_real dx[3] = {B->x[3 * j] - A->x[3 * i], B->x[3 * j + 1] - A->x[3 * i + 1],
+                               B->x[3 * j + 2] - A->x[3 * i + 2]};
+        const ej_real hbar = cpl_hbar(A, i, B, j);
+        if (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2] >= 4.0 * hbar * hbar) continue;
+        rmin = B->rho[j] < rmin ? B->rho[j] : rmin;
+        rmax = B->rho[j] > rmax ? B->rho[j] : rmax;
+      }
+      const ej_real lk = log(rmax / rmin);
+      psi = lk > 1e-9 ? 1.0 / lk : INFINITY;
+    }
     for (ej_off k = ab->off[i]; k < ab->off[i + 1]; ++k) {
       const ej_idx j = ab->idx[k];
       const ej_real dx[3] = {B->x[3 * j] - A->x[3 * i], B->x[3 * j + 1] - A->x[3 * i + 1],
                              B->x[3 * j + 2] - A->x[3 * i + 2]};
       const ej_real r2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
-      const ej_real hbar = 0.5 * (h_i + cpl_h(B, j));
+      const ej_real hbar = cpl_hbar(A, i, B, j);
       if (r2 >= 4.0 * hbar * hbar || r2 <= 0) continue;
       const ej_real rr = sqrt(r2), ih = 1.0 / hbar;
       const ej_real dwdr = sigma_k * sph_inv_pow(ih, dim + 1) * sph_kernel_df(P->kernel, dim, rr * ih);
@@ -163,12 +203,21 @@ static inline void cpl_gather_w(const cpl_params *P, const cpl_side *A, const cp
       for (int q = 0; q < 3; ++q) acc[q] += mj * Sg[q];
       /* (v_i - v_j) = -dv */
       de += mj * (dv[0] * Sig[0] + dv[1] * Sig[1] + dv[2] * Sig[2]);
-      drho -= (mj / B->rho[j]) * (dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2]);
+      const ej_real vg = dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2];
+      if (psi < 0) drho -= (mj / B->rho[j]) * vg;
+      else if (isinf(psi)) drho_m -= mj * vg;
+      else drho_m -= (rho_i + psi * B->rho[j]) / ((1 + psi) * B->rho[j]) * mj * vg; /* 001 Eq 4 */
     }
     for (int q = 0; q < 3; ++q) A->a[3 * i + q] += acc[q];
     if (A->e_dot) A->e_dot[i] += de;
-    if (A->rho_dot) A->rho_dot[i] += rho_i * drho;
+    if (A->rho_dot) A->rho_dot[i] += wc * (rho_i * drho + drho_m);
   }
+}
+
+static inline void cpl_gather_w(const cpl_params *P, const cpl_side *A, const cpl_side *B, const ej_nbr *ab,
+                                ej_range r, ej_real wa, ej_real wb, ej_real ea)
+{
+  cpl_gather_wc(P, A, B, ab, r, wa, wb, ea, 1);
 }
 
 /* Stable step of the interface pairs of particles i in r: a pair closes its gap at |v_ij| and
@@ -179,12 +228,12 @@ static inline void cpl_dt_gather(const cpl_side *A, const cpl_side *B, const ej_
 {
   for (ej_idx i = r.begin; i < r.end; ++i) {
     ej_real d = INFINITY;
-    const ej_real hi = cpl_h(A, i), ci = cpl_c(A, i);
+    const ej_real ci = cpl_c(A, i);
     for (ej_off k = ab->off[i]; k < ab->off[i + 1]; ++k) {
       const ej_idx j = ab->idx[k];
       const ej_real dx[3] = {B->x[3 * j] - A->x[3 * i], B->x[3 * j + 1] - A->x[3 * i + 1],
                              B->x[3 * j + 2] - A->x[3 * i + 2]};
-      const ej_real hbar = 0.5 * (hi + cpl_h(B, j));
+      const ej_real hbar = cpl_hbar(A, i, B, j);
       if (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2] >= 4.0 * hbar * hbar) continue;
       const ej_real dv[3] = {B->v[3 * j] - A->v[3 * i], B->v[3 * j + 1] - A->v[3 * i + 1],
                              B->v[3 * j + 2] - A->v[3 * i + 2]};

@@ -1,13 +1,31 @@
 /* Interaction `pd_sph`: coupling of a peridynamic solid (tlpd: soil, rock) and a fluid set
  * (sph or ulpd: explosive products, air), Fan & Li (000) §2.4.
  *
- * form: pairwise (default) — equal and opposite pair forces from the fluid's stress only
- *   (the "traction" weights of continuum_pair.h): the solid's own stress acts through its PD
- *   operator, whose truncated families at the interface already give the solid's side of the
- *   traction; adding the solid's stress again (the symmetric SPH form) would count it twice and
- *   makes the interface stiff. Neither weighting transmits a plane wave within 3 % yet
- *   (validation/pd_sph_impedance: fluid -59 %, both +84 % on T for Z2/Z1 = 0.35). Exact
- *   momentum and energy conservation with either.
+ * form: pairwise (default) — equal and opposite pair forces (the terms of continuum_pair.h), with
+ *   pair_stress owned (default): the fluid owns the interface. The solid's PD operator is the
+ *   derivative of its strain energy with its families (truncated at the interface: its force
+ *   there is its own free-surface traction), and the solid's J does not see the fluid. The
+ *   fluid's continuity sum over the solid neighbours, rho_i sum_j V_j (v_i - v_j).grad_i W,
+ *   counts only half of the volume swept by a relative motion of the two sets (the other half
+ *   would be the solid's, as in SPH-SPH). ejecta gives the fluid all of it:
+ *     drho_i/dt += 2 rho_i sum_{j solid} V_j (v_i - v_j) . grad_i W
+ *   and takes the pair force that makes this variational (the power of the fluid's pressure on
+ *   that volume rate): S_ij = 2 sigma_i / (rho_i rho_j) (i the fluid particle, volume form),
+ *   all of the pair's work into the fluid's e. So the interface transmits the fluid's full
+ *   traction (a uniform stress is in equilibrium on every fluid particle; on the solid's
+ *   surface layer in the sum, not particle by particle), energy is the fluid's EOS energy plus
+ *   the solid's strain energy, momentum is exact. Impedance test (validation/pd_sph_impedance,
+ *   1D, dx = 1 mm): T -0.3 %, R -0.8 % (Z2/Z1 = 0.35); T -0.1 %, R -0.8 % (2.83).
+ *   pair_stress fluid (sigma_fluid once, continuity once: the half-volume interface, soft) and
+ *   both (the symmetric SPH form; the solid's stress acts twice and its work in the pair is
+ *   not strain energy: stiff) are kept for comparison; both fail the test.
+ *   Use renormalize: false on the SPH set: the sph method renormalises its continuity sum over
+ *   its own (one-sided) neighbours, by up to 2 at the interface, which no coupling sees.
+ *   A solid particle has no h: per pair it takes the fluid particle's h/spacing ratio
+ *   (cpl_hbar, h_factor 0), so the fluid's kernel sums are the same across the interface.
+ * form: consistent — see pd_sph_consistent_solid: Eq 39 over the union of the PD family and
+ *   the fluid neighbours (tlpd force_form difference); exact equilibrium, approximate momentum,
+ *   unstable like the difference form it needs (README).
  * form: paper — 000 Eqs 39-42 with the sign corrections of the digest (§1.5, errata 11-12):
  *   PD side (particle I of the solid, fluid neighbours J inside its horizon):
  *     rho0_I a_I += sum_J w(|X_IJ|) (P_J - P_I) K_I^-1 X_IJ V_J                      (Eq 39)
@@ -33,7 +51,7 @@
 #include "ejecta/plugin.h"
 #include "ejecta/tensor.h"
 
-enum { PDSPH_PAIRWISE = 0, PDSPH_PAPER = 1 };
+enum { PDSPH_PAIRWISE = 0, PDSPH_PAPER = 1, PDSPH_CONSISTENT = 2 };
 enum { PDSPH_W_CONSTANT = 0, PDSPH_W_CONICAL2 = 1 };
 
 typedef struct pd_sph_config {
@@ -46,18 +64,23 @@ typedef struct pd_sph_config {
   ej_real decohesion_pressure, decohesion_strain;
 } pd_sph_config;
 
-static const char *const pd_sph_forms[] = {"pairwise", "paper", NULL};
-static const char *const pd_sph_pair_stress[] = {"fluid", "both", NULL};
+static const char *const pd_sph_forms[] = {"pairwise", "paper", "consistent", NULL};
+static const char *const pd_sph_pair_stress[] = {"owned", "fluid", "both", NULL};
+enum { PDSPH_PS_OWNED = 0, PDSPH_PS_FLUID = 1, PDSPH_PS_BOTH = 2 };
 static const char *const pd_sph_kernels[] = {"cubic_spline", "wendland_c2", NULL};
 static const char *const pd_sph_influences[] = {"constant", "conical2", NULL};
 
 static const ej_param pd_sph_params[] = {
     EJ_PARAM_ENUM(pd_sph_config, form, pd_sph_forms, "pairwise",
-                  "pairwise: equal and opposite pair forces (exact momentum and energy); paper: 000 Eqs 39-42 "
-                  "with the digest's sign corrections (approximate momentum exchange)."),
-    EJ_PARAM_ENUM(pd_sph_config, pair_stress, pd_sph_pair_stress, "fluid",
-                  "form pairwise: whose stress enters the pair term: fluid (the solid's own PD operator carries "
-                  "its side) or both (the symmetric SPH form of the continuum interaction)."),
+                  "pairwise: equal and opposite pair forces (exact momentum and energy; passes the interface "
+                  "impedance test with pair_stress owned); paper: 000 Eqs 39-42 with the digest's sign corrections "
+                  "(approximate momentum exchange); consistent: Eq 39 over the union of the PD family and the fluid "
+                  "neighbours (needs tlpd force_form: difference; a uniform stress stays at rest to round-off, but "
+                  "dynamically unstable like the difference form)."),
+    EJ_PARAM_ENUM(pd_sph_config, pair_stress, pd_sph_pair_stress, "owned",
+                  "form pairwise: owned (the fluid owns the interface: pair stress 2 sigma_fluid and the fluid's "
+                  "continuity counts the solid's relative motion twice; variational, passes the impedance test), "
+                  "fluid (sigma_fluid once) or both (sigma_fluid + sigma_solid); the last two fail it."),
     EJ_PARAM_ENUM(pd_sph_config, kernel, pd_sph_kernels, "cubic_spline", "SPH kernel of the fluid-side sums."),
     EJ_PARAM_REAL(pd_sph_config, alpha, "1", 1.0, 0, 10, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Monaghan viscosity, linear coefficient, on approaching interface pairs."),
@@ -65,12 +88,14 @@ static const ej_param pd_sph_params[] = {
                   "Monaghan viscosity, quadratic coefficient."),
     EJ_PARAM_REAL(pd_sph_config, eta, "1", 0.1, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX | EJ_PF_MIN_OPEN,
                   "Viscosity singularity guard (eta^2 hbar^2 added to r^2)."),
-    EJ_PARAM_REAL(pd_sph_config, h_factor, "1", 1.3, 0.5, 3, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
-                  "Smoothing length of solid particles (no 'h' field), in initial spacings."),
+    EJ_PARAM_REAL(pd_sph_config, h_factor, "1", 0, 0, 3, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Smoothing length of solid particles (no 'h' field), in initial spacings; 0: the h/spacing "
+                  "ratio of the fluid particle of each pair (the same kernel sums across the interface)."),
     EJ_PARAM_REAL(pd_sph_config, horizon, "1", 3.0, 1, 6, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
-                  "form paper: horizon of a solid particle for its fluid neighbours, in its initial spacings."),
+                  "forms paper and consistent: horizon of a solid particle for its fluid neighbours, in its initial "
+                  "spacings (use the tlpd set's)."),
     EJ_PARAM_ENUM(pd_sph_config, influence, pd_sph_influences, "constant",
-                  "form paper: influence function w of Eq 39: constant or (1 - r/delta)^2."),
+                  "forms paper and consistent: influence function w of Eq 39: constant or (1 - r/delta)^2."),
     EJ_PARAM_REAL(pd_sph_config, decohesion_pressure, "Pa", 0, 0, 0, EJ_PF_HAS_MIN,
                   "ejecta decohesion: a solid particle whose fluid neighbours exceed this pressure loses all its "
                   "bonds; 0 = off."),
@@ -129,7 +154,7 @@ static ej_err pd_sph_paper_solid(const pd_sph_state *s, const cpl_side *S, const
   for (ej_idx i = r.begin; i < r.end; ++i) {
     ej_real Fi_inv[9], Ki[9];
     if (ej_m3_inverse(Fi_inv, F + 9 * i) == 0) continue; /* a crushed particle: no coupling force */
-    ej_s6_to_m3(Ki, Kinv + 6 * i);
+    memcpy(Ki, Kinv + 9 * i, sizeof Ki); /* K_inv is a full 3x3 (EJ_TENSOR9) */
     const ej_real delta = s->cfg.horizon * pd_sph_spacing(S->dim, S->vol0[i]);
     ej_real f[3] = {0, 0, 0};
     for (ej_off k = sg->off[i]; k < sg->off[i + 1]; ++k) {
@@ -155,6 +180,129 @@ static ej_err pd_sph_paper_solid(const pd_sph_state *s, const cpl_side *S, const
   return EJ_OK;
 }
 
+/* Form consistent, PD side (ejecta's completion of 000 Eq 39; see the file comment and README).
+ * The solid's method (tlpd, force_form difference) has already added its one-sided gradient
+ * f_m = sum_{PD} w (P_j - P_i) K_i^-1 X V_j to rho0 a_i, which is exact for linear stress fields
+ * but blind to the fluid. With K_S = sum_{fluid} w X (x) X V_j over the fluid neighbours inside
+ * the horizon and K~ = K_i + K_S, the union operator of 000 Eq 39 is
+ *   f = (G_PD + G_S) : K~^-1,   G_S : K~^-1 = sum_{fluid} w (P_j - P_i) K~^-1 X V_j,
+ * and G_PD : K~^-1 = f_m (K_i K~^-1) exactly in 1D. ejecta writes the first factor as the scalar
+ * 1 - theta, theta = n.K_S n / n.K~ n along the direction n of the fluid neighbours' first moment
+ * (exact in 1D; the normal component for a plane interface in 3D):
+ *   rho0 a_i <- (1 - theta) rho0 a_i + sum_{fluid} w (P_j - P_i) K~^-1 X V_j.
+ * Both parts vanish for a uniform stress (equilibrium to round-off, unit test) and are exact for a
+ * linear one. The fluid particle's PK1 stress is taken in the solid particle's frame,
+ * P_j = J_i sigma_j F_i^-T, its bond X = F_i^-1 x_ij and its reference volume V_j = m_j / (rho_j J_i),
+ * so that a fluid at the solid's Cauchy stress gives P_j = P_i exactly (the digest's isotropic F_j,
+ * with the fluid's own J_j, would not). Weights: the influence function and the partial volume of
+ * tlpd (constant, beta = (delta + dx/2 - r)/dx at the horizon edge).
+ * f_m is read from a_i: interactions run after every set's passes (plugin.h), so a_i holds the
+ * method's force (with its hourglass term), plus that of any interaction on the solid that ran
+ * before this one (README: keep it the only one). Measured: a uniform stress is at rest to
+ * round-off, but the difference form's free-surface instability remains (README). */
+static ej_err pd_sph_consistent_solid(const pd_sph_state *s, const cpl_side *S, const cpl_side *G, ej_set *solid,
+                                      const ej_nbr *sg, ej_range r)
+{
+  const ej_real *F = ej_set_field(solid, "F"), *Kinv = ej_set_field(solid, "K_inv"), *Pf = ej_set_field(solid, "P");
+  const int32_t *status = ej_set_field_int(solid, "pd_status");
+  if (!F || !Kinv || !Pf)
+    EJ_FAIL(EJ_ERR_INPUT,
+            "pd_sph form consistent needs the solid set '%s' to use tlpd with force_form: difference (fields F, "
+            "K_inv, P)",
+            ej_set_name(solid));
+  const int dim = S->dim;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    if (sg->off[i + 1] == sg->off[i]) continue;
+    const ej_real *Fi = F + 9 * i, *Pi = Pf + 9 * i;
+    ej_real Fi_inv[9];
+    if (ej_m3_inverse(Fi_inv, Fi) == 0) continue;
+    const ej_real Ji = ej_m3_det(Fi);
+    if (!(Ji > 0)) continue;
+    const ej_real dx = pd_sph_spacing(dim, S->vol0[i]);
+    const ej_real delta = s->cfg.horizon * dx;
+    /* the solid's own shape tensor (intact bonds), without the pads of unused dimensions */
+    ej_real Kt[9] = {0};
+    const bool own = !status || status[i] == 0;
+    if (own) {
+      /* K_inv carries unit pads in unused dimensions: re-pad at the used scale, then invert */
+      ej_real Km[9], Kp[9], tr = 0;
+      memcpy(Km, Kinv + 9 * i, sizeof Km);
+      for (int a = 0; a < dim; ++a) tr += Km[4 * a];
+      for (int a = dim; a < 3; ++a) {
+        for (int b = 0; b < 3; ++b) Km[3 * a + b] = Km[3 * b + a] = 0;
+        Km[4 * a] = tr / dim;
+      }
+      if (ej_m3_inverse(Kp, Km) == 0) continue;
+      for (int a = 0; a < dim; ++a)
+        for (int b = 0; b < dim; ++b) Kt[3 * a + b] = Kp[3 * a + b];
+    }
+    ej_real KS[9] = {0}, m1[3] = {0, 0, 0};
+    int nf = 0;
+    for (int pass = 0; pass < 2; ++pass) {
+      ej_real Kti[9], f[3] = {0, 0, 0};
+      if (pass == 1) {
+        if (nf == 0) break;
+        for (int k = 0; k < 9; ++k) Kt[k] += KS[k];
+        ej_real tr = 0;
+        for (int a = 0; a < dim; ++a) tr += Kt[4 * a];
+        if (!(tr > 0)) break;
+        for (int a = dim; a < 3; ++a) Kt[4 * a] = tr / dim; /* pad unused dimensions at the same scale */
+        if (ej_m3_inverse(Kti, Kt) < 1e-6) break; /* too few fluid neighbours and no own family */
+        for (int a = dim; a < 3; ++a) Kt[4 * a] = 0;
+      }
+      for (ej_off k = sg->off[i]; k < sg->off[i + 1]; ++k) {
+        const ej_idx j = sg->idx[k];
+        const ej_real x[3] = {G->x[3 * j] - S->x[3 * i], G->x[3 * j + 1] - S->x[3 * i + 1], G->x[3 * j + 2] - S->x[3 * i + 2]};
+        ej_real X[3];
+        ej_m3_apply(X, Fi_inv, x);
+        const ej_real lx = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
+        if (lx <= 0 || lx >= delta + 0.5 * dx) continue;
+        const ej_real beta = lx > delta - 0.5 * dx ? (delta + 0.5 * dx - lx) / dx : 1.0;
+        const ej_real infl = s->cfg.influence == PDSPH_W_CONSTANT ? 1.0 : (1 - lx / delta) * (1 - lx / delta);
+        const ej_real wV = infl * beta * G->m[j] / (G->rho[j] * Ji);
+        if (pass == 0) {
+          ++nf;
+          for (int a = 0; a < 3; ++a) {
+            m1[a] += wV * X[a];
+            for (int b = 0; b < 3; ++b) KS[3 * a + b] += wV * X[a] * X[b];
+          }
+          continue;
+        }
+        /* P_j = J_i sigma_j F_i^-T in the solid particle's frame */
+        ej_real sj[6], Sj[9], Pj[9];
+        cpl_stress(G, j, sj);
+        ej_s6_to_m3(Sj, sj);
+        ej_m3_mul_bt(Pj, Sj, Fi_inv); /* sigma F^-T */
+        ej_real u[3];
+        ej_m3_apply(u, Kti, X);
+        for (int q = 0; q < 3; ++q)
+          for (int b = 0; b < 3; ++b) f[q] += wV * (Ji * Pj[3 * q + b] - Pi[3 * q + b]) * u[b];
+      }
+      if (pass == 1) {
+        /* theta: the fluid's share of the union shape tensor along the fluid's direction */
+        const ej_real nm = sqrt(m1[0] * m1[0] + m1[1] * m1[1] + m1[2] * m1[2]);
+        ej_real theta;
+        if (!own) theta = 1;
+        else if (nm > 0) {
+          const ej_real n[3] = {m1[0] / nm, m1[1] / nm, m1[2] / nm};
+          ej_real Kn[3], KSn[3];
+          ej_m3_apply(Kn, Kt, n);
+          ej_m3_apply(KSn, KS, n);
+          const ej_real den = n[0] * Kn[0] + n[1] * Kn[1] + n[2] * Kn[2];
+          theta = den > 0 ? (n[0] * KSn[0] + n[1] * KSn[1] + n[2] * KSn[2]) / den : 0;
+        } else {
+          ej_real tS = 0, tT = 0;
+          for (int a = 0; a < dim; ++a) tS += KS[4 * a], tT += Kt[4 * a];
+          theta = tT > 0 ? tS / tT : 0;
+        }
+        const ej_real rho0 = S->m[i] / S->vol0[i];
+        for (int q = 0; q < dim; ++q) S->a[3 * i + q] = (1 - theta) * S->a[3 * i + q] + f[q] / rho0;
+      }
+    }
+  }
+  return EJ_OK;
+}
+
 /* Fluid side of the paper form: standard SPH sums with the solid particle as a fluid particle of
  * density rho0/J and pressure -tr(sigma)/3 (Eqs 41-42). */
 static void pd_sph_paper_fluid(const pd_sph_state *s, const cpl_side *G, const cpl_side *S, const ej_nbr *gs,
@@ -164,13 +312,13 @@ static void pd_sph_paper_fluid(const pd_sph_state *s, const cpl_side *G, const c
   const ej_real sigma_k = sph_kernel_sigma(s->P.kernel, dim);
   for (ej_idx i = r.begin; i < r.end; ++i) {
     const ej_real rho_i = G->rho[i], pi_ = G->p ? G->p[i] : -ej_s6_trace(G->stress + 6 * i) / 3;
-    const ej_real hi = cpl_h(G, i), ci = cpl_c(G, i), pr_i = pi_ / (rho_i * rho_i);
+    const ej_real ci = cpl_c(G, i), pr_i = pi_ / (rho_i * rho_i);
     ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0;
     for (ej_off k = gs->off[i]; k < gs->off[i + 1]; ++k) {
       const ej_idx j = gs->idx[k];
       const ej_real dx[3] = {S->x[3 * j] - G->x[3 * i], S->x[3 * j + 1] - G->x[3 * i + 1], S->x[3 * j + 2] - G->x[3 * i + 2]};
       const ej_real r2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
-      const ej_real hbar = 0.5 * (hi + cpl_h(S, j));
+      const ej_real hbar = cpl_hbar(G, i, S, j);
       if (r2 >= 4 * hbar * hbar || r2 <= 0) continue;
       const ej_real rr = sqrt(r2), ih = 1 / hbar;
       const ej_real dwdr = sigma_k * sph_inv_pow(ih, dim + 1) * sph_kernel_df(s->P.kernel, dim, rr * ih);
@@ -211,7 +359,7 @@ static void pd_sph_decohesion(const pd_sph_state *s, const cpl_side *S, const cp
       for (ej_off k = sg->off[i]; k < sg->off[i + 1] && !fail; ++k) {
         const ej_idx j = sg->idx[k];
         const ej_real dx[3] = {G->x[3 * j] - S->x[3 * i], G->x[3 * j + 1] - S->x[3 * i + 1], G->x[3 * j + 2] - S->x[3 * i + 2]};
-        const ej_real hbar = 0.5 * (cpl_h(S, i) + cpl_h(G, j));
+        const ej_real hbar = cpl_hbar(S, i, G, j);
         if (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2] >= 4 * hbar * hbar) continue;
         const ej_real pj = G->p ? G->p[j] : -ej_s6_trace(G->stress + 6 * j) / 3;
         fail = pj > s->cfg.decohesion_pressure;
@@ -229,10 +377,25 @@ static ej_err pd_sph_compute(void *state, ej_set *a, ej_set *b, const ej_nbr *ab
   EJ_TRY(cpl_bind(&B, b, "pd_sph", s->cfg.h_factor));
   const bool a_is_solid = a == s->solid;
   if (s->cfg.form == PDSPH_PAIRWISE) {
-    /* traction form (file comment): only the fluid's stress enters the pair term */
-    if (s->cfg.pair_stress == 1) cpl_gather(&s->P, &A, &B, ab, r);
-    else if (a_is_solid) cpl_gather_w(&s->P, &A, &B, ab, r, 0, 1, 0);
-    else cpl_gather_w(&s->P, &A, &B, ab, r, 1, 0, 1);
+    /* pair weights (file comment) */
+    switch (s->cfg.pair_stress) {
+    case PDSPH_PS_BOTH: cpl_gather(&s->P, &A, &B, ab, r); break;
+    case PDSPH_PS_FLUID:
+      if (a_is_solid) cpl_gather_w(&s->P, &A, &B, ab, r, 0, 1, 0);
+      else cpl_gather_w(&s->P, &A, &B, ab, r, 1, 0, 1);
+      break;
+    default: /* owned: see the file comment */
+      if (a_is_solid) cpl_gather_wc(&s->P, &A, &B, ab, r, 0, 2, 0, 1);
+      else cpl_gather_wc(&s->P, &A, &B, ab, r, 2, 0, 1, 2);
+      break;
+    }
+  } else if (s->cfg.form == PDSPH_CONSISTENT) {
+    /* fluid side: the SPH stress form with the solid particles as SPH neighbours (Cauchy
+     * stress, density rho0/J, mass m: 000 Eqs 41-42 with the full stress), in the volume form
+     * (sigma_i + sigma_j)/(rho_i rho_j): a uniform stress is then in equilibrium across a density
+     * jump (the standard form sigma_i/rho_i^2 + sigma_j/rho_j^2 is not) */
+    if (a_is_solid) EJ_TRY(pd_sph_consistent_solid(s, &A, &B, a, ab, r));
+    else cpl_gather(&s->P, &A, &B, ab, r);
   } else if (a_is_solid) {
     EJ_TRY(pd_sph_paper_solid(s, &A, &B, a, ab, r));
   } else {
@@ -264,8 +427,12 @@ static const ej_interaction_ops pd_sph_ops = {
     .name = "pd_sph",
     .summary = "Peridynamics-SPH coupling (Fan & Li 000 §2.4, sign-corrected) with a conserving pairwise form",
     .doc = "Couples a peridynamic solid set (tlpd) with a fluid set (sph, ulpd). form: pairwise applies equal and "
-           "opposite SPH stress-form pair forces (exact momentum and energy); form: paper applies 000 Eqs 39-42 with "
-           "the digest's sign corrections (P = -J p F^-T for a fluid particle seen from the PD side, p = -tr(P F^T)/(3J) "
+           "opposite SPH stress-form pair forces (exact momentum and energy); with pair_stress owned (default) the "
+           "fluid owns the interface (pair stress 2 sigma_fluid, the fluid's continuity counts the relative motion "
+           "twice), which transmits a plane wave within 2 % of the acoustic T and R (1D and 3D, 100 spacings per "
+           "pulse); form: consistent completes the difference-form PD gradient with the fluid neighbours (exact "
+           "equilibrium, unstable); form: paper applies 000 Eqs 39-42 with the digest's sign corrections "
+           "(P = -J p F^-T for a fluid particle seen from the PD side, p = -tr(P F^T)/(3J) "
            "for a PD particle seen from the fluid side) and an isotropic F for fluid particles. Optional decohesion "
            "(ejecta's own rule): solid particles next to fluid above a pressure, or dilated beyond a strain, lose "
            "all their bonds. See plugins/interactions/pd_sph/README.md.",
