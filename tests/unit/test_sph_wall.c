@@ -1,0 +1,268 @@
+/* Interaction `sph_wall` (Adami, Hu & Adams 2012 dummy-particle walls):
+ * - hydrostatic water column (2D, weakly compressible, started from the hydrostatic density) in
+ *   a wall box stays at rest and keeps p = rho g (H - y) within 1 % of rho g H;
+ * - a liquid slab sliding along a floor keeps its momentum on a free-slip wall and is slowed by
+ *   a no-slip wall;
+ * - an elastic SPH block dropped at 3 m/s on the floor does not penetrate it and bounces;
+ * - a wall set with ghost particles is refused with a message. */
+#include <check.h>
+#include <hdf5.h>
+#include <stdarg.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "core_impl.h"
+#include "validation_common.h"
+
+const ej_plugin_info *ej_plugin_sph_wall_info(void);
+const ej_plugin_info *ej_plugin_polynomial_info(void);
+const ej_plugin_info *ej_plugin_rigid_body_info(void);
+const ej_plugin_info *ej_plugin_elastic_info(void);
+
+typedef vscene wrun;
+
+static ej_err wrun_open(wrun *c, const char *fmt, ...)
+{
+  const ej_plugin_info *p[] = {ej_plugin_sph_info(), ej_plugin_polynomial_info(), ej_plugin_rigid_body_info(),
+                               ej_plugin_sph_wall_info(), ej_plugin_elastic_info()};
+  va_list ap;
+  va_start(ap, fmt);
+  ej_err rc = vscene_open(c, "wall", p, 5, fmt, ap);
+  va_end(ap);
+  return rc;
+}
+
+static void wrun_go(wrun *c)
+{
+  ej_err rc = ej_sim_run(c->r.sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+}
+
+static ej_set *wrun_set(wrun *c, const char *name)
+{
+  for (int s = 0; s < c->r.sim->n_sets; ++s)
+    if (!strcmp(c->r.sim->sets[s]->name, name)) return c->r.sim->sets[s];
+  ck_abort_msg("no set %s", name);
+  return NULL;
+}
+
+/* Water-like liquid: rho0 1000, p = K (rho/rho0 - 1), K = 2e5 Pa (c = 14 m/s, 10 sqrt(g H)). */
+#define W_RHO0 1000.0
+#define W_K 2.0e5
+#define W_G 9.81
+#define W_H 0.2
+
+static const char wall_box[] =
+    "  wall: {method: rigid_body, material: wallmat, fix_translation: [1, 1, 1], fix_rotation: [1, 1, 1],\n"
+    "         shape: {box: {min: [-0.03, -0.03], max: [%g, 0.3]}, minus: [{box: {min: [0, 0], max: [%g, 0.31]}}]},"
+    " spacing: 0.01}\n";
+
+START_TEST(test_hydrostatic_column)
+{
+  /* 20 x 20 particles, dx = 0.01, Wendland C2; initial density layered to the hydrostatic profile
+   * (rows of 1 dx). Adami's test (JCP 2012 §4.1) with a linear EOS. 0.5 s = 3500 steps. */
+  char layers[4096] = "", *q = layers;
+  for (int k = 0; k < 20; ++k) {
+    const double yc = 0.005 + 0.01 * k, rho = W_RHO0 * (1 + W_RHO0 * W_G * (W_H - yc) / W_K);
+    q += snprintf(q, sizeof layers - (size_t)(q - layers), "%s{region: {box: {min: [-1, %.3f], max: [1, %.3f]}}, rho: %.9g}",
+                  k ? ", " : "", 0.01 * k, 0.01 * (k + 1), rho);
+  }
+  char box[512];
+  snprintf(box, sizeof box, wall_box, 0.23, 0.2);
+  wrun c;
+  ej_err rc = wrun_open(&c,
+                        "ejecta: 1\ndimension: 2\ntime: {end: 0.5, cfl: 0.3}\noutput: {file: %s}\n"
+                        "materials:\n  water: {rho0: 1000, eos: {model: polynomial, rho0: 1000, C1: %g}}\n"
+                        "  wallmat: {rho0: 1000}\n"
+                        "sets:\n  fluid: {method: sph, material: water, kernel: wendland_c2, renormalize: false,\n"
+                        "         shape: {box: {min: [0, 0], max: [0.2, 0.2]}}, spacing: 0.01, initial: [%s]}\n"
+                        "%s"
+                        "interactions:\n  - {model: sph_wall, sets: [fluid, wall], kernel: wendland_c2, gravity: [0, "
+                        "-9.81, 0]}\ngravity: [0, -9.81]\n",
+                        "out.h5", W_K, layers, box);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  wrun_go(&c);
+  ej_set *f = wrun_set(&c, "fluid");
+  const ej_real *x = ej_set_field(f, "x"), *v = ej_set_field(f, "v"), *p = ej_set_field(f, "p");
+  const double scale = W_RHO0 * W_G * W_H;
+  double emax = 0, emax_low = 0, esum = 0, vmax = 0, ymin = 1;
+  for (ej_idx i = 0; i < f->n; ++i) {
+    const double e = fabs(p[i] - W_RHO0 * W_G * (W_H - x[3 * i + 1])) / scale;
+    emax = fmax(emax, e), esum += e;
+    if (x[3 * i + 1] < W_H - 0.03) emax_low = fmax(emax_low, e); /* below the free surface's 2h */
+    vmax = fmax(vmax, hypot(v[3 * i], v[3 * i + 1]));
+    ymin = fmin(ymin, x[3 * i + 1]);
+  }
+  fprintf(stderr,
+          "hydrostatic column, %lld steps: |p - rho g (H - y)| / (rho g H): mean %.4f, max %.4f (max %.4f below "
+          "H - 2h); max |v| %.2e m/s (sqrt(g H) = %.2f); lowest particle y = %.5f\n",
+          (long long)c.r.sim->step, esum / f->n, emax, emax_low, vmax, sqrt(W_G * W_H), ymin);
+  ck_assert_double_lt(esum / f->n, 0.01);
+  ck_assert_double_lt(emax_low, 0.01);
+  ck_assert_double_lt(emax, 0.02);
+  ck_assert_double_lt(vmax, 1e-3 * sqrt(W_G * W_H));
+  ck_assert_double_gt(ymin, 0.0045); /* the bottom row (y0 = 0.005) stays off the wall */
+  vscene_free(&c);
+}
+END_TEST
+
+/* A liquid slab (0.3 x 0.04) sliding at 1 m/s on a long floor for 0.1 s; returns the mean vx. */
+static double slab_mean_vx(const char *slip)
+{
+  wrun c;
+  ej_err rc = wrun_open(&c,
+                        "ejecta: 1\ndimension: 2\ntime: {end: 0.1, cfl: 0.3}\noutput: {file: %s}\n"
+                        "materials:\n  water: {rho0: 1000, eos: {model: polynomial, rho0: 1000, C1: 2e5}}\n"
+                        "  wallmat: {rho0: 1000}\n"
+                        "sets:\n  fluid: {method: sph, material: water, kernel: wendland_c2, renormalize: false,\n"
+                        "         shape: {box: {min: [0, 0], max: [0.3, 0.04]}}, spacing: 0.01, velocity: [1, 0]}\n"
+                        "  wall: {method: rigid_body, material: wallmat, fix_translation: [1, 1, 1], fix_rotation: "
+                        "[1, 1, 1],\n         shape: {box: {min: [-0.1, -0.03], max: [0.6, 0]}}, spacing: 0.01}\n"
+                        "interactions:\n  - {model: sph_wall, sets: [fluid, wall], kernel: wendland_c2, slip: %s, "
+                        "gravity: [0, -9.81, 0]}\ngravity: [0, -9.81]\n",
+                        "out.h5", slip);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  wrun_go(&c);
+  ej_set *f = wrun_set(&c, "fluid");
+  const ej_real *v = ej_set_field(f, "v"), *x = ej_set_field(f, "x"), *m = ej_set_field(f, "m");
+  double px = 0, M = 0, ymin = 1;
+  for (ej_idx i = 0; i < f->n; ++i) px += m[i] * v[3 * i], M += m[i], ymin = fmin(ymin, x[3 * i + 1]);
+  fprintf(stderr, "slab on a %s floor: mean vx %.4f m/s after 0.1 s (initial 1), lowest y %.5f\n", slip, px / M, ymin);
+  ck_assert_double_gt(ymin, 0.0);
+  vscene_free(&c);
+  return px / M;
+}
+
+START_TEST(test_free_vs_no_slip)
+{
+  const double free = slab_mean_vx("free_slip"), none = slab_mean_vx("no_slip");
+  /* free slip: no tangential force, the momentum is kept (the wall's normal forces are vertical) */
+  ck_assert_double_lt(fabs(free - 1.0), 0.01);
+  /* no slip: the wall's viscous term drags the slab measurably */
+  ck_assert_double_lt(none, free - 0.05);
+}
+END_TEST
+
+/* Lowest y of set `set` over the frames of an output file. */
+static double frames_ymin(const char *file, const char *set, int *n_frames)
+{
+  hid_t f = H5Fopen(file, H5F_ACC_RDONLY, H5P_DEFAULT);
+  ck_assert_int_ge(f, 0);
+  double ymin = INFINITY;
+  *n_frames = 0;
+  for (int k = 0; k < 100000; ++k) {
+    char path[128];
+    snprintf(path, sizeof path, "/frames/%06d", k);
+    if (H5Lexists(f, path, H5P_DEFAULT) <= 0) break;
+    snprintf(path, sizeof path, "/frames/%06d/%s/x", k, set);
+    hid_t d = H5Dopen2(f, path, H5P_DEFAULT);
+    ck_assert_int_ge(d, 0);
+    hid_t sp = H5Dget_space(d);
+    hsize_t dims[2] = {0, 0};
+    H5Sget_simple_extent_dims(sp, dims, NULL);
+    double *x = malloc(dims[0] * dims[1] * sizeof *x);
+    ck_assert_ptr_nonnull(x);
+    ck_assert_int_ge(H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, x), 0);
+    for (hsize_t i = 0; i < dims[0]; ++i) ymin = fmin(ymin, x[i * dims[1] + 1]);
+    free(x);
+    H5Sclose(sp);
+    H5Dclose(d);
+    ++*n_frames;
+  }
+  H5Fclose(f);
+  return ymin;
+}
+
+START_TEST(test_dropped_block)
+{
+  /* elastic block (E 10 MPa, nu 0.3, rho 1000: P-wave speed 116 m/s) 0.1 x 0.05 starting 4 dx
+   * above the floor at 3 m/s downwards; 20 ms (the contact lasts about 2 H / c = 1 ms), frames
+   * every 0.1 ms. */
+  wrun c;
+  ej_err rc = wrun_open(&c,
+                        "ejecta: 1\ndimension: 2\ntime: {end: 0.02, cfl: 0.3}\noutput: {file: %s, every: 1e-4}\n"
+                        "materials:\n  rubber: {model: elastic, rho0: 1000, E: 10 MPa, nu: 0.3}\n"
+                        "  wallmat: {rho0: 1000}\n"
+                        "sets:\n  block: {method: sph, strength: true, material: rubber, kernel: wendland_c2,\n"
+                        "         shape: {box: {min: [0, 0.02], max: [0.1, 0.07]}}, spacing: 0.005, velocity: [0, -3]}\n"
+                        "  wall: {method: rigid_body, material: wallmat, fix_translation: [1, 1, 1], fix_rotation: "
+                        "[1, 1, 1],\n         shape: {box: {min: [-0.05, -0.015], max: [0.15, 0]}}, spacing: 0.005}\n"
+                        "interactions:\n  - {model: sph_wall, sets: [block, wall], kernel: wendland_c2}\n",
+                        "out.h5");
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  wrun_go(&c);
+  ej_set *b = wrun_set(&c, "block");
+  const ej_real *v = ej_set_field(b, "v"), *m = ej_set_field(b, "m");
+  double py = 0, M = 0;
+  for (ej_idx i = 0; i < b->n; ++i) py += m[i] * v[3 * i + 1], M += m[i];
+  int nf = 0;
+  const double ymin = frames_ymin(c.out, "block", &nf);
+  fprintf(stderr,
+          "dropped block: lowest particle y over %d frames %.5f m (floor surface 0, first row at dx/2 = 0.0025), "
+          "mean vy after %.3f s: %+.3f m/s (initial -3)\n",
+          nf, ymin, c.r.sim->t, py / M);
+  /* energy: kinetic + internal - external (the wall's share of the pair work, series `work`) */
+  const ej_energy *E = &c.r.sim->energy;
+  fprintf(stderr, "dropped block energy: KE0 %.3f J, KE %.3f J, internal %.3f J, wall work %.3f J, balance %.2e J\n",
+          E->total0, E->kinetic, E->internal, E->external, E->balance);
+  ck_assert_double_lt(fabs(E->balance), 1e-4 * E->total0);
+  ck_assert_double_lt(E->external, 0.0); /* the wall creates no energy over the impact */
+  ck_assert_int_gt(nf, 100);
+  ck_assert_double_gt(ymin, 0.0);   /* never inside the wall */
+  ck_assert_double_gt(py / M, 0.0); /* bounced */
+  vscene_free(&c);
+}
+END_TEST
+
+START_TEST(test_wall_ghosts_refused)
+{
+  /* an SPH wall set (fixed by a boundary condition) under a symmetry plane has ghosts: refused */
+  wrun c;
+  ej_err rc = wrun_open(&c,
+                        "ejecta: 1\ndimension: 2\ntime: {end: 0.001, cfl: 0.3}\noutput: {file: %s}\n"
+                        "materials:\n  water: {rho0: 1000, eos: {model: polynomial, rho0: 1000, C1: 2e5}}\n"
+                        "  wallmat: {rho0: 1000}\n"
+                        "sets:\n  fluid: {method: sph, material: water, shape: {box: {min: [0, 0], max: [0.1, 0.1]}}, "
+                        "spacing: 0.01}\n"
+                        "  wall: {method: sph, material: water, shape: {box: {min: [0, -0.03], max: [0.2, 0]}}, "
+                        "spacing: 0.01}\n"
+                        "interactions:\n  - {model: sph_wall, sets: [fluid, wall]}\n"
+                        "boundaries:\n  - symmetry: {point: [0, 0], normal: [1, 0]}\n  - {fix: [x, y], set: wall}\n",
+                        "out.h5");
+  if (rc == EJ_OK) rc = ej_sim_run(c.r.sim);
+  ck_assert_int_ne(rc, EJ_OK);
+  ck_assert_ptr_nonnull(ej_error_cause());
+  ck_assert_ptr_nonnull(strstr(ej_error_cause()->msg, "ghost particles"));
+  ej_error_clear();
+  vscene_free(&c);
+}
+END_TEST
+
+static Suite *sph_wall_suite(void)
+{
+  Suite *s = suite_create("sph_wall");
+  TCase *tc = tcase_create("walls");
+  tcase_set_timeout(tc, 120);
+  tcase_add_test(tc, test_hydrostatic_column);
+  tcase_add_test(tc, test_free_vs_no_slip);
+  tcase_add_test(tc, test_dropped_block);
+  tcase_add_test(tc, test_wall_ghosts_refused);
+  suite_add_tcase(s, tc);
+  return s;
+}
+
+int main(void)
+{
+  SRunner *sr = srunner_create(sph_wall_suite());
+  srunner_run_all(sr, CK_NORMAL);
+  const int failed = srunner_ntests_failed(sr);
+  srunner_free(sr);
+  return failed ? EXIT_FAILURE : EXIT_SUCCESS;
+}
