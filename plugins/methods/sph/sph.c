@@ -29,6 +29,8 @@ typedef struct sph_config {
   bool correction;
   int gradient;
   int shape_form;
+  int shape_viscosity;
+  int shape_energy;
   ej_real shape_rcond_min;
   ej_real h_factor;
   bool variable_h;
@@ -51,6 +53,10 @@ enum { SPH_GRAD_KERNEL = 0, SPH_GRAD_SHAPE = 1 };
 static const char *const sph_gradient_names[] = {"kernel", "shape_tensor", NULL};
 enum { SPH_SHAPE_SYMMETRIC = 0, SPH_SHAPE_PAPER = 1 };
 static const char *const sph_shape_form_names[] = {"symmetric", "paper", NULL};
+enum { SPH_SHAPE_VISC_KERNEL = 0, SPH_SHAPE_VISC_SHAPE = 1 };
+static const char *const sph_shape_visc_names[] = {"kernel", "shape", NULL};
+enum { SPH_SHAPE_ENERGY_OWN = 0, SPH_SHAPE_ENERGY_SYMMETRIC = 1 };
+static const char *const sph_shape_energy_names[] = {"own", "symmetric", NULL};
 enum { SPH_RATE_HW = 0, SPH_RATE_JAUMANN = 1 };
 static const char *const sph_stress_rate_names[] = {"hughes_winget", "jaumann", NULL};
 #define SPH_MAX_HIST 16
@@ -84,6 +90,16 @@ static const ej_param sph_params[] = {
                   "equations (equal and opposite pair forces: momentum and energy conserved to round-off); "
                   "paper, G_ij = g_i = w_ij M_i^-1 x_ij as printed (000 Eqs 35-36), which conserves neither "
                   "exactly. The continuity equation uses g_i in both."),
+    EJ_PARAM_ENUM(sph_config, shape_viscosity, sph_shape_visc_names, "kernel",
+                  "With gradient: shape_tensor, shape_form: symmetric: the gradient of the Monaghan viscosity "
+                  "term, kernel (grad_i W_ij along the line of centres: the viscous heating of every pair is "
+                  ">= 0) or shape (G_ij like the pressure term: the heating can be negative where M is "
+                  "anisotropic, which drives e < 0 in the Sedov blast)."),
+    EJ_PARAM_ENUM(sph_config, shape_energy, sph_shape_energy_names, "own",
+                  "With gradient: shape_tensor, shape_form: symmetric: pdV work of the energy equation, own "
+                  "(de_i/dt = sum_j m_j p_i/rho_i^2 v_ij.G_ij: follows particle i's own compression, e cannot "
+                  "change sign by it) or symmetric (1/2 sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) v_ij.G_ij, 000 "
+                  "Eq 36 with its erratum). Both conserve total energy exactly."),
     EJ_PARAM_REAL(sph_config, shape_rcond_min, "1", 0.02, 0.0, 1.0 / 3.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Smallest reciprocal condition estimate 1/(|M|_F |M^-1|_F) of a particle's shape tensor "
                   "(1/3 for an isotropic neighbourhood) below which it falls back to the kernel gradient "
@@ -139,7 +155,27 @@ typedef struct sph_state {
   const ej_material *mat; /* strength model (strength: true), else NULL */
   ej_real K, G;           /* its initial moduli */
   const char *set_name;
+  /* gradient: shape_tensor: per owned row, bit k of keep[SPH_KEEP_WORDS * i + k / 64] set when list
+   * entry off[i] + k lies inside 2 hbar (written by the shape pass, read by the pair pass of the
+   * same step, so the pair pass visits only those entries); allocated in setup for keep_cap rows */
+  uint64_t *keep;
+  ej_idx keep_cap;
 } sph_state;
+
+/* Rows longer than 64 SPH_KEEP_WORDS entries are visited in full (every entry tested). */
+#define SPH_KEEP_WORDS 8
+
+/* index of the lowest set bit of a nonzero word */
+static inline int sph_ctz64(uint64_t b)
+{
+#if defined(__GNUC__)
+  return __builtin_ctzll(b);
+#else
+  int n = 0;
+  while (!(b & 1u)) b >>= 1, ++n;
+  return n;
+#endif
+}
 
 /* ------------------------------------------------------------------ declare */
 
@@ -276,7 +312,12 @@ static ej_err sph_create(const void *config, ej_set *set, const ej_model *model,
   return EJ_OK;
 }
 
-static void sph_destroy(void *state) { ej_free(state); }
+static void sph_destroy(void *state)
+{
+  sph_state *s = state;
+  if (s) ej_free(s->keep);
+  ej_free(state);
+}
 
 /* ------------------------------------------------------------------ smoothing length */
 
@@ -367,6 +408,12 @@ static ej_err sph_setup(void *state, ej_set *set)
   }
   /* h, p and c exist before the first support call and the first output frame. */
   EJ_TRY(sph_particle_pass(s, set, (ej_range){0, n}));
+  if (s->cfg.gradient == SPH_GRAD_SHAPE && !s->keep) { /* the shape pass's entry masks (setup only) */
+    sph_state *ms = state;
+    ms->keep = ej_calloc((size_t)n * SPH_KEEP_WORDS + 1, sizeof(uint64_t));
+    EJ_ENSURE(ms->keep, EJ_ERR_MEM, "set '%s': sph out of memory", s->set_name);
+    ms->keep_cap = n;
+  }
   return EJ_OK;
 }
 
@@ -402,6 +449,8 @@ typedef struct sph_pair_args {
   const ej_real *x, *v, *m, *rho, *p_rho2, *c, *h, *w_cont, *L, *M;
   const int32_t *fb;
   bool volume_form, renormalize, cont_rate;
+  bool visc_kernel, energy_own; /* shape_form symmetric: shape_viscosity kernel, shape_energy own */
+  const uint64_t *keep; /* shape tensor: the shape pass's masks of entries inside 2 hbar, or NULL */
   ej_real *a, *rho_dot, *e_dot, *w_dot, *mu_max;
   const ej_off *off;
   const ej_idx *idx;
@@ -519,13 +568,17 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
                                                      const ej_real *restrict h, const ej_off *restrict off,
                                                      const ej_idx *restrict idx, ej_real rcond_min,
                                                      const ej_real *restrict vol, ej_real *restrict Minv,
-                                                     int32_t *restrict fb, ej_range rg)
+                                                     int32_t *restrict fb, uint64_t *restrict keep, ej_range rg)
 {
   const ej_real sigma = sph_kernel_sigma(kernel, dim);
   /* Blocked like sph_pairs_blocked: gather, then a vectorised sum (a fixed order for a given
    * build, whatever the thread count); pairs beyond 2 hbar get weight 0. */
   ej_real bx[SPH_BLK], by[SPH_BLK], bz[SPH_BLK], bh[SPH_BLK], bV[SPH_BLK];
+  int32_t bk[SPH_BLK];
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
+    uint64_t *restrict ki = keep && off[i + 1] - off[i] <= 64 * SPH_KEEP_WORDS ? keep + SPH_KEEP_WORDS * i : NULL;
+    if (ki)
+      for (int w = 0; w < SPH_KEEP_WORDS; ++w) ki[w] = 0;
     ej_real b0 = 0, b1 = 0, b2 = 0, b3 = 0, b4 = 0, b5 = 0; /* xx yy zz xy yz zx */
     const ej_real inv_hi = 1.0 / h[i], hi = h[i];
     const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
@@ -554,7 +607,9 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
         const ej_real hbar = 0.5 * (hi + bh[q]);
         const ej_real inv_h = 1.0 / hbar;
         const ej_real w0 = bV[q] * sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, sqrt(r2) * inv_h);
-        const ej_real w = r2 < 4.0 * hbar * hbar ? w0 : 0.0;
+        const bool in = r2 < 4.0 * hbar * hbar;
+        const ej_real w = in ? w0 : 0.0;
+        bk[q] = in;
         b0 += w * rx * rx;
         b1 += w * ry * ry;
         b2 += w * rz * rz;
@@ -562,6 +617,11 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
         b4 += w * ry * rz;
         b5 += w * rz * rx;
       }
+      if (ki) /* the same test r2 < 4 hbar^2 as the pair pass (r2 of x_j - x_i is that of x_i - x_j) */
+        for (int q = 0; q < nk; ++q) {
+          const ej_off k = k0 - off[i] + q;
+          ki[k >> 6] |= (uint64_t)(bk[q] != 0) << (k & 63);
+        }
     }
     ej_real b[6] = {b0, dim > 1 ? b1 : 0.0, dim > 2 ? b2 : 0.0, dim > 1 ? b3 : 0.0, dim > 2 ? b4 : 0.0,
                     dim > 2 ? b5 : 0.0};
@@ -606,9 +666,10 @@ static ej_err sph_shape_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr,
             s->set_name);
   const ej_real thr = s->cfg.shape_rcond_min;
   const ej_real *vol = s->cfg.continuity == SPH_CONT_VOLUME ? ej_set_field(set, "w_cont") : NULL;
+  uint64_t *keep = s->keep && ej_set_count(set) <= s->keep_cap ? s->keep : NULL;
 #define SPH_SHAPE_CASE(k, d)                                                                            \
   case (k) * 4 + (d):                                                                                   \
-    sph_shape_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, thr, vol, Minv, fb, r);                  \
+    sph_shape_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, thr, vol, Minv, fb, keep, r);            \
     break
   switch (s->cfg.kernel * 4 + s->dim) {
     SPH_FOR_EACH_KERNEL_DIM(SPH_SHAPE_CASE);
@@ -783,19 +844,23 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
   }
 }
 
-/* The same pair loop for the plain kernel gradient (no correction, no shape tensor), in blocks
- * of up to SPH_BLK entries of a row: (1) gather the neighbours' data into contiguous buffers,
- * (2) evaluate every pair term in a loop without indexed loads or branches, which the compiler
- * vectorises (divisions and sqrt four at a time), (3) accumulate the terms of the pairs inside
- * 2 hbar in list order. Every term is the same IEEE expression as in sph_pairs, evaluated in
- * the same order (ISO C: no FMA contraction), and the sums run in the same order, so the result
- * is bitwise that of sph_pairs; the test r2 < 4 hbar^2 becomes a mask instead of a branch. */
+/* The pair loop of the kernel gradient (no correction) and of the shape tensor, in blocks of up
+ * to SPH_BLK entries of a row: (1) gather the neighbours' data into contiguous buffers (a scalar
+ * loop), (2) evaluate every pair term and sum it in one vectorised loop (omp simd reduction):
+ * pairs beyond 2 hbar (the Verlet skin) contribute a selected 0, so there is no branch and no
+ * store of per-pair terms. The reduction order is fixed for a given build and independent of
+ * the thread count (each row is summed by one thread), so results are bitwise identical for any
+ * --threads; they differ from sph_pairs (the scalar reference loop, used with `correction`) by
+ * round-off only. The four reciprocals of a pair (1/hbar, 1/r, 1/d1, 1/(rho_i + rho_j)) come
+ * from one division, 1/(r hbar d1 rho_sum), times the other three factors: divisions are the
+ * slowest vector operations (profile in README). With r >= 1e-12 hbar, d1 >= eta^2 hbar^2 and
+ * rho_sum >= 2 rho_min the product neither overflows nor underflows for any physical scale. */
 static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const int dim, const int shape,
                                                         const sph_pair_args *A, ej_range rg)
 {
   const ej_real *restrict x = A->x, *restrict v = A->v, *restrict m = A->m, *restrict rho = A->rho;
   const ej_real *restrict p_rho2 = A->p_rho2, *restrict c = A->c, *restrict h = A->h;
-  const ej_real *restrict w_cont = A->w_cont, *restrict M = A->M;
+  const ej_real *restrict M = A->M;
   const int32_t *restrict fb = A->fb;
   const bool volume_form = A->volume_form, renormalize = A->renormalize;
   ej_real *restrict a = A->a, *restrict rho_dot = A->rho_dot, *restrict e_dot = A->e_dot;
@@ -804,20 +869,25 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
   const ej_idx *restrict idx = A->idx;
   const ej_real alpha = A->alpha, beta = A->beta, eta2 = A->eta2;
   const ej_real sigma = sph_kernel_sigma(kernel, dim);
-  /* shape == 2: the neighbour's M_j^-1 (6) and fallback flag */
+  /* shape == 2 only (README "Stabilised symmetric form"): the Monaghan viscosity with the kernel
+   * gradient (radial, so v_ij.grad_i W_ij >= 0 wherever Pi_ij > 0: non-negative heating; Monaghan,
+   * ARA&A 30 (1992) 543), and the pdV work of particle i's own pressure,
+   *   de_i/dt = sum_j m_j (p_i/rho_i^2) v_ij.G_ij + 1/2 sum_j m_j Pi_ij v_ij.grad_i W_ij
+   * (the "p_i" energy equation, Monaghan 1992; Price, JCP 231 (2012) 759), instead of 000 Eq 36's
+   * 1/2 (p_i/rho_i^2 + p_j/rho_j^2). Energy stays exactly conserved: v_ij.G_ij is symmetric in i, j
+   * (both factors antisymmetric), so sum_ij m_i m_j (p_i/rho_i^2) v_ij.G_ij equals the symmetrised
+   * sum, which is -sum_i m_i v_i.a_i of the pressure force. */
+  const bool visc_kernel = shape == 2 && A->visc_kernel, energy_own = shape == 2 && A->energy_own;
+  /* shape == 2: the neighbour's M_j^-1 (6; all 0 for a fallback row) */
   ej_real bM[6][shape == 2 ? SPH_BLK : 1];
-  int32_t bfb[shape == 2 ? SPH_BLK : 1];
-  /* gathered neighbour data, then per-pair terms (21 KiB of stack, L1-resident); one array so
-   * that every buffer is a constant offset from one base register (no spilled pointers) */
-  enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BPR, BM, BW, TAX, TAY, TAZ, TDRHO, TNORM, TDE, TDW, TMU, NBUF };
+  /* gathered neighbour data (12 KiB of stack, L1-resident); one array so that every buffer is
+   * a constant offset from one base register (no spilled pointers) */
+  enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BPR, BM, NBUF };
   ej_real buf[NBUF][SPH_BLK];
   ej_real *restrict bx = buf[BX], *restrict by = buf[BY], *restrict bz = buf[BZ], *restrict bh = buf[BH];
   ej_real *restrict bvx = buf[BVX], *restrict bvy = buf[BVY], *restrict bvz = buf[BVZ];
   ej_real *restrict brho = buf[BRHO], *restrict bc = buf[BC], *restrict bpr = buf[BPR], *restrict bm = buf[BM];
-  ej_real *restrict bw = buf[BW], *restrict tax = buf[TAX], *restrict tay = buf[TAY], *restrict taz = buf[TAZ];
-  ej_real *restrict tdrho = buf[TDRHO], *restrict tnorm = buf[TNORM], *restrict tde = buf[TDE], *restrict tdw = buf[TDW];
-  ej_real *restrict tmu = buf[TMU];
-  int32_t keep[SPH_BLK];
+  ej_off ent[SPH_BLK]; /* list entries of the block */
 
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
     const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
@@ -830,28 +900,45 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
     const ej_real mi3 = shape ? M[6 * i + 3] : 0.0, mi4 = shape ? M[6 * i + 4] : 0.0, mi5 = shape ? M[6 * i + 5] : 0.0;
     const bool ren = shape ? renormalize && fbi : renormalize;
     ej_real ax = 0.0, ay = 0.0, az = 0.0, drho = 0.0, norm = 0.0, de = 0.0, dw = 0.0, mumax = 0.0;
-    for (ej_off k0 = off[i]; k0 < off[i + 1]; k0 += SPH_BLK) {
-      const int nk = (int)(off[i + 1] - k0 < SPH_BLK ? off[i + 1] - k0 : SPH_BLK);
+    /* shape tensor: only the entries inside 2 hbar, from the shape pass's masks */
+    const uint64_t *restrict ki = shape && A->keep && off[i + 1] - off[i] <= 64 * SPH_KEEP_WORDS
+                                      ? A->keep + SPH_KEEP_WORDS * i : NULL;
+    int wrd = 0;
+    uint64_t bits = ki ? ki[0] : 0;
+    ej_off kc = off[i];
+    for (;;) {
+      int nk = 0;
+      const ej_off kb = kc; /* without masks: entries kb .. kb + nk - 1 */
+      if (ki) {
+        while (nk < SPH_BLK) {
+          while (!bits && wrd + 1 < SPH_KEEP_WORDS) bits = ki[++wrd];
+          if (!bits) break;
+          ent[nk++] = off[i] + 64 * wrd + sph_ctz64(bits);
+          bits &= bits - 1;
+        }
+      } else {
+        nk = (int)(off[i + 1] - kc < SPH_BLK ? off[i + 1] - kc : SPH_BLK);
+        kc += nk;
+      }
+      if (nk == 0) break;
       for (int q = 0; q < nk; ++q) {
-        const ej_idx j = idx[k0 + q];
+        const ej_idx j = idx[ki ? ent[q] : kb + q];
         bx[q] = x[3 * j];
         by[q] = dim > 1 ? x[3 * j + 1] : 0.0;
         bz[q] = dim > 2 ? x[3 * j + 2] : 0.0;
         bvx[q] = v[3 * j];
         bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0;
         bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
-        bh[q] = h[j], brho[q] = rho[j], bc[q] = c[j], bpr[q] = p_rho2[j], bm[q] = m[j], bw[q] = w_cont[j];
-        if (shape == 2) {
+        bh[q] = h[j], brho[q] = rho[j], bc[q] = c[j], bpr[q] = p_rho2[j], bm[q] = m[j];
+        if (shape == 2) /* M_inv = 0 marks a fallback row (a regular M^-1 has M^-1_xx > 0) */
           for (int t = 0; t < 6; ++t) bM[t][q] = M[6 * j + t];
-          bfb[q] = fb[j];
-        }
 #if defined(__GNUC__)
         /* keeps this loop scalar: vectorised, its indexed loads become element inserts (slower) */
         __asm__ volatile("");
 #endif
       }
 #if defined(_OPENMP)
-#pragma omp simd
+#pragma omp simd reduction(+ : ax, ay, az, drho, norm, de, dw) reduction(max : mumax)
 #endif
       for (int q = 0; q < nk; ++q) {
         const ej_real rx = xi0 - bx[q];
@@ -859,13 +946,17 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
         const ej_real rz = dim > 2 ? xi2 - bz[q] : 0.0;
         const ej_real r2 = rx * rx + ry * ry + rz * rz;
         const ej_real hbar = 0.5 * (hi + bh[q]);
-        keep[q] = r2 < 4.0 * hbar * hbar;
+        const bool keep = r2 < 4.0 * hbar * hbar;
+        /* A coincident pair has f'(0) = 0 for both kernels: clamping r keeps 0 * finite. */
         const ej_real r_raw = sqrt(r2), r_min = 1e-12 * hbar;
         const ej_real r = r_raw > r_min ? r_raw : r_min;
-        const ej_real rhoj = brho[q];
-        const ej_real d1 = r2 + eta2 * hbar * hbar, rho_sum = rhoi + rhoj;
-        const ej_real inv_h = 1.0 / hbar, inv_r = 1.0 / r;
-        const ej_real inv_d1 = 1.0 / d1, inv_rho_sum = 1.0 / rho_sum;
+        const ej_real rhoj = brho[q], d1 = r2 + eta2 * hbar * hbar, rho_sum = rhoi + rhoj;
+        /* one division for the five reciprocals (1/rho_j: the continuity weight m_j/rho_j of the
+         * volume form, one copied array less than gathering w_cont) */
+        const ej_real P = r * hbar, Q = d1 * rho_sum, PQ = P * Q, D = 1.0 / (PQ * rhoj), Dj = D * rhoj;
+        const ej_real PD = P * Dj, QD = Q * Dj;
+        const ej_real inv_h = r * QD, inv_r = hbar * QD, inv_d1 = rho_sum * PD, inv_rho_sum = d1 * PD;
+        const ej_real wj = volume_form ? bm[q] * (PQ * D) : bm[q];
         const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) * inv_r;
         const ej_real vx = vi0 - bvx[q];
         const ej_real vy = dim > 1 ? vi1 - bvy[q] : 0.0;
@@ -873,11 +964,11 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
         const ej_real vr = vx * rx + vy * ry + vz * rz;
         const ej_real mu = hbar * (vr < 0.0 ? vr : 0.0) * inv_d1;
         const ej_real pi_ij = (-alpha * 0.5 * (ci + bc[q]) * mu + beta * mu * mu) * 2.0 * inv_rho_sum;
-        tmu[q] = -mu;
         const ej_real mj = bm[q];
         const ej_real fP = mj * (pri + bpr[q] + pi_ij);
         ej_real gx = gw * rx, gy = gw * ry, gz = gw * rz;
         ej_real vC = vr * gw, vG = vC;
+        const ej_real kx = gx, ky = gy, kz = gz, vK = vC; /* grad_i W_ij and v_ij . grad_i W_ij */
         if (shape) { /* the expressions of sph_pairs, with selects for the fallbacks */
           const ej_real wv = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
           const ej_real ux = -wv * rx, uy = -wv * ry, uz = -wv * rz;
@@ -890,7 +981,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
             const ej_real tx = bM[0][q] * ux + bM[3][q] * uy + bM[5][q] * uz;
             const ej_real ty = dim > 1 ? bM[3][q] * ux + bM[1][q] * uy + bM[4][q] * uz : 0.0;
             const ej_real tz = dim > 2 ? bM[5][q] * ux + bM[4][q] * uy + bM[2][q] * uz : 0.0;
-            const bool fj = bfb[q] != 0;
+            const bool fj = !(bM[0][q] > 0.0); /* fallback row j: M_j^-1 = 0 */
             const ej_real jx = fj ? gx : tx, jy = fj ? gy : ty, jz = fj ? gz : tz;
             gx = 0.5 * (ix + jx), gy = 0.5 * (iy + jy), gz = 0.5 * (iz + jz);
             vG = (fbi && fj) ? vr * gw : vx * gx + vy * gy + vz * gz;
@@ -899,24 +990,37 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
             vG = fbi ? vr * gw : vx * gx + vy * gy + vz * gz;
           }
         }
-        tax[q] = fP * gx;
-        tay[q] = fP * gy;
-        taz[q] = fP * gz;
-        tdrho[q] = bw[q] * vC;
-        tnorm[q] = bw[q] * r2 * gw;
-        tde[q] = fP * vG;
-        tdw[q] = mj * pi_ij * vG;
-      }
-      for (int q = 0; q < nk; ++q) {
-        if (!keep[q]) continue;
-        mumax = tmu[q] > mumax ? tmu[q] : mumax;
-        ax -= tax[q];
-        if (dim > 1) ay -= tay[q];
-        if (dim > 2) az -= taz[q];
-        drho += tdrho[q];
-        norm += tnorm[q];
-        de += tde[q];
-        dw += tdw[q];
+        /* pairs beyond 2 hbar (the skin) add exact zeros */
+        const ej_real wk = keep ? wj : 0.0;
+        mumax = keep && -mu > mumax ? -mu : mumax;
+        drho += wk * vC;
+        norm += wk * r2 * gw;
+        if (visc_kernel || energy_own) {
+          /* pressure with G_ij; viscosity with G_ij or grad_i W_ij (radial: v_ij.grad_i W_ij >= 0 wherever
+           * Pi_ij > 0, so the viscous heating is >= 0); energy 1/2 (p_i + p_j) or p_i (x2, halved below) */
+          const ej_real fp = keep ? mj * (pri + bpr[q]) : 0.0, fv = keep ? mj * pi_ij : 0.0;
+          const ej_real vx_ = visc_kernel ? kx : gx, vy_ = visc_kernel ? ky : gy, vz_ = visc_kernel ? kz : gz;
+          const ej_real vV = visc_kernel ? vK : vG;
+          /* a pair where both rows fell back is a plain kernel-gradient pair: exactly the kernel
+           * form (000 Eqs 23-24), bitwise; the classification is symmetric in i, j, so energy is
+           * conserved pair by pair either way */
+          const bool plain = fbi && !(bM[0][q] > 0.0);
+          const ej_real fPk = keep ? fP : 0.0;
+          const ej_real tx = fp * gx + fv * vx_, ty = fp * gy + fv * vy_, tz = fp * gz + fv * vz_;
+          ax -= plain ? fPk * gx : tx;
+          if (dim > 1) ay -= plain ? fPk * gy : ty;
+          if (dim > 2) az -= plain ? fPk * gz : tz;
+          const ej_real te = (energy_own ? (keep ? 2.0 * mj * pri : 0.0) : fp) * vG + fv * vV;
+          de += plain ? fPk * vG : te;
+          dw += plain ? fv * vG : fv * vV;
+        } else {
+          const ej_real fPk = keep ? fP : 0.0;
+          ax -= fPk * gx;
+          if (dim > 1) ay -= fPk * gy;
+          if (dim > 2) az -= fPk * gz;
+          de += fPk * vG;
+          dw += keep ? mj * pi_ij * vG : 0.0;
+        }
       }
     }
     a[3 * i] += ax;
@@ -998,7 +1102,10 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
       .cont_rate = s->cfg.density == SPH_DENS_CONTINUITY, .a = ej_set_field(set, "a"), .rho_dot = ej_set_field(set, "rho_dot"),
       .e_dot = ej_set_field(set, "e_dot"), .w_dot = ej_set_field(set, "w_visc_dot"),
       .mu_max = ej_set_field(set, "mu_max"), .off = nbr->off, .idx = nbr->idx,
-      .alpha = s->cfg.alpha, .beta = s->cfg.beta, .eta2 = s->cfg.eta * s->cfg.eta};
+      .alpha = s->cfg.alpha, .beta = s->cfg.beta, .eta2 = s->cfg.eta * s->cfg.eta,
+      .visc_kernel = s->cfg.shape_viscosity == SPH_SHAPE_VISC_KERNEL,
+      .energy_own = s->cfg.shape_energy == SPH_SHAPE_ENERGY_OWN,
+      .keep = s->keep && ej_set_count(set) <= s->keep_cap ? s->keep : NULL};
   EJ_ENSURE(A.x && A.v && A.m && A.rho && A.p_rho2 && A.c && A.h && A.w_cont && A.a && A.rho_dot && A.e_dot && A.w_dot &&
                 A.mu_max,
             EJ_ERR_INTERNAL, "set '%s': sph fields missing", s->set_name);
