@@ -86,7 +86,7 @@ static void fix_open(ufix *f, int dim, ej_idx n, bool elastic)
   f->set->dt = &f->dt;
   ck_assert_int_eq(ej_decl_probe(f->mops, f->mcfg, f->set), EJ_OK);
   ck_assert_int_eq(f->set->nbr_config, EJ_NBR_CURRENT);
-  const char *want[] = {"rho", "rho_dot", "e", "e_dot", "p", "c", "delta", "stress", "w_visc", "w_visc_dot"};
+  const char *want[] = {"rho", "rho_dot", "e", "e_dot", "p", "c", "delta", "h", "stress", "w_visc", "w_visc_dot"};
   for (size_t k = 0; k < sizeof want / sizeof want[0]; ++k)
     ck_assert_msg(ej_set_find_field(f->set, want[k]) >= 0, "field '%s' not declared", want[k]);
   ck_assert_int_eq(f->set->fields[ej_set_find_field(f->set, "e")].energy, EJ_ENERGY_INTERNAL);
@@ -218,8 +218,11 @@ static void check_linear(int dim, bool variable)
   const int32_t *fl = ej_set_field_int(f.set, "ulpd_flags");
   const ej_real R = 0.5 * (side - 1) * dx, Anorm = ej_m3_norm(A);
   int checked = 0;
+  const ej_real *h = ej_set_field(f.set, "h");
   for (ej_idx i = 0; i < n; ++i) {
     ck_assert_int_eq(fl[i] & 1, 0); /* no fallback anywhere, surface included */
+    /* the smoothing length published for kernel couplings is half the horizon */
+    ck_assert_msg(h[i] == 0.5 * delta[i] && h[i] > 0.0, "h %g, delta %g", h[i], delta[i]);
     bool interior = true;
     for (int d = 0; d < dim; ++d) interior &= fabs(x[3 * i + d]) < R - delta[i] - 0.5 * dx;
     if (!interior) continue;

@@ -114,7 +114,7 @@ typedef struct ulpd_state {
 /* Field pointers of one compute call (valid until the next rebuild). */
 typedef struct ulpd_fields {
   ej_real *x, *v, *a, *m, *vol0;
-  ej_real *rho, *rho_dot, *e, *e_dot, *p, *c, *delta, *q, *stress;
+  ej_real *rho, *rho_dot, *e, *e_dot, *p, *c, *delta, *h, *q, *stress;
   ej_real *w_visc_dot, *w_plastic_dot, *L, *S, *kappa, *d_rate, *wp_inc, *dt_local;
   int32_t *flags, *fb_total;
 } ulpd_fields;
@@ -136,6 +136,9 @@ static ej_err ulpd_declare(const void *config, int dim, ej_decl *d)
        .doc = "Sound speed (EOS, or the strength model's P-wave speed)."},
       {.name = "delta", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_OUTPUT, .unit = "m",
        .doc = "Horizon: radius of the current-configuration family."},
+      {.name = "h", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_OUTPUT, .unit = "m",
+       .doc = "Smoothing length published for kernel couplings (continuum, pd_sph): delta/2, so that a "
+              "coupling kernel of support 2h reaches as far as the family and follows the current spacing."},
       {.name = "q", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "Pa",
        .doc = "Artificial viscous pressure (002 Eq 42-44, viscous-pressure form)."},
       {.name = "stress", .kind = EJ_SYM6, .flags = EJ_FIELD_OUTPUT | EJ_FIELD_NO_GHOST, .unit = "Pa",
@@ -246,6 +249,7 @@ static ej_err ulpd_get_fields(const ulpd_state *s, ej_set *set, ulpd_fields *F)
   F->rho = ej_set_field(set, "rho"), F->rho_dot = ej_set_field(set, "rho_dot");
   F->e = ej_set_field(set, "e"), F->e_dot = ej_set_field(set, "e_dot");
   F->p = ej_set_field(set, "p"), F->c = ej_set_field(set, "c"), F->delta = ej_set_field(set, "delta");
+  F->h = ej_set_field(set, "h");
   F->q = ej_set_field(set, "q"), F->stress = ej_set_field(set, "stress");
   F->w_visc_dot = ej_set_field(set, "w_visc_dot"), F->w_plastic_dot = ej_set_field(set, "w_plastic_dot");
   F->L = ej_set_field(set, "vel_grad"), F->S = ej_set_field(set, "S_force"), F->kappa = ej_set_field(set, "kappa");
@@ -253,7 +257,7 @@ static ej_err ulpd_get_fields(const ulpd_state *s, ej_set *set, ulpd_fields *F)
   F->dt_local = ej_set_field(set, "dt_local");
   F->flags = ej_set_field_int(set, "ulpd_flags"), F->fb_total = ej_set_field_int(set, "shape_fallbacks");
   EJ_ENSURE(F->x && F->v && F->a && F->m && F->vol0 && F->rho && F->rho_dot && F->e && F->e_dot && F->p && F->c &&
-                F->delta && F->q && F->stress && F->w_visc_dot && F->w_plastic_dot && F->L && F->S && F->kappa &&
+                F->delta && F->h && F->q && F->stress && F->w_visc_dot && F->w_plastic_dot && F->L && F->S && F->kappa &&
                 F->d_rate && F->wp_inc && F->dt_local && F->flags && F->fb_total,
             EJ_ERR_INTERNAL, "set '%s': ulpd fields missing", s->set_name);
   return EJ_OK;
@@ -300,6 +304,7 @@ static ej_err ulpd_prepare(const ulpd_state *s, const ej_set *set, const ulpd_fi
     if (F->rho[i] < floor) F->rho[i] = floor, F->flags[i] |= ULPD_FLAG_RHO_FLOOR;
     if (!(F->rho[i] > 0.0)) return ulpd_bad_particle(s, set, i, "density rho", F->rho[i]);
     F->delta[i] = ulpd_horizon(cfg, s->dim, F->m[i], F->vol0[i], F->rho[i]);
+    F->h[i] = 0.5 * F->delta[i];
   }
   return EJ_OK;
 }
