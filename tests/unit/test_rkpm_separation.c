@@ -1,7 +1,7 @@
 /* RKPM hard case (issue 9): a rigid disc perforates a 2D soil plate (semi-Lagrangian RKPM,
  * dp_damage, kernel_contact); the plate tears and nodes lose the neighbours their linear moment
  * matrix needs. With the guard rcond_min = 0.05 the run stays finite, the guard engages and is
- * counted, and the energy balance closes within 2 %. (With the default guard 1e-6 this run blows
+ * counted, and the energy balance closes within 2 % (MSNNI, cfl 0.2). (With the default guard 1e-6 this run blows
  * up: see validation/rkpm_separation/README.md.) Same scene as validation/rkpm_separation case 2. */
 #include <check.h>
 #include <math.h>
@@ -82,7 +82,10 @@ static ej_set *rb_set(const rb_run *R, const char *name)
 START_TEST(test_perforation)
 {
   rb_run R;
-  rb_open(&R, "ejecta: 1\ndimension: 2\ntime: {end: 150 us, cfl: 0.3}\noutput: {file: rb.h5, fields: [v]}\n"
+  /* cfl 0.2: with MSNNI (the rkpm default) the time-integration error of this violent event is
+   * larger than with DNI: balance 2.2 % (cfl 0.3), 1.1 % (0.25), 0.25 % (0.2), 0.16 % (0.15);
+   * DNI 0.31 % at 0.3. */
+  rb_open(&R, "ejecta: 1\ndimension: 2\ntime: {end: 150 us, cfl: 0.2}\noutput: {file: rb.h5, fields: [v]}\n"
               "materials:\n  soil: {model: dp_damage, rho0: 2000, E: 200 MPa, nu: 0.2, beta: 0.16, A: 20 kPa,"
               " H_alpha: 100 MPa, c2: 0.05, c1: 1.0}\n  steel: {rho0: 7800}\n"
               "sets:\n"
