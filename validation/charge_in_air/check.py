@@ -20,7 +20,7 @@ spacing alpha R (refine regions, nested spheres), spacing ratio 2 between shells
 Gauges: for R = Z W^(1/3), W = 8 x the octant's charge mass as built (the lattice sphere),
 the air particles with |r - R| < s(R)/2 (s the local spacing) in each frame; Pso = max over the
 frames of (mean pressure of that shell) - 101325 Pa. The maximum over the shell's particles is
-printed too.
+printed too, and per set the particles with rho < 0 and those at sph's density floor (diagnostics).
 
     /usr/bin/python3 validation/charge_in_air/check.py --build build [--nc 4 --alpha 0.2] [--reuse]
 """
@@ -199,6 +199,23 @@ def gauges(path, shells):
     return Wb, out, bal, steps, n
 
 
+def at_floor(path):
+    """Per set with particles at sph's density floor (rho_min m/vol0: 1e-4 rho0 for the charge, 0.01 rho0 for
+    the air, see scene()) in some frame: (max particles at once, set size, first time)."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        for fr in sorted(f["frames"].keys()):
+            g = f["frames"][fr]
+            for k in g.keys():
+                rho = g[k]["rho"][()]
+                floor = 1e-4 * RHO_TNT if k == "charge" else 0.01 * 1.225
+                nf = int(np.sum(rho <= floor * (1 + 1e-6)))
+                if nf:
+                    o = out.setdefault(k, [0, rho.size, float(g.attrs["time"])])
+                    o[0] = max(o[0], nf)
+    return out
+
+
 def negative_density(path):
     """Per set with rho < 0 in some frame: (max particles at once, frames, first time, minimum rho)."""
     out = {}
@@ -257,7 +274,11 @@ def main():
           f"(wall {wall:.0f} s)")
     print(f"  charge as built: W = {Wb:.4f} kg (8 x octant); energy balance max |b|/total0 = {bal:.2e}")
     print("  negative density in the output frames (particles, frames, first time, minimum): " +
-          "; ".join(f"{k} {v[0]}, {v[1]}, {1e3 * v[2]:.2f} ms, {v[3]:.3g} kg/m^3" for k, v in rho_neg.items()) or "none")
+          ("; ".join(f"{k} {v[0]}, {v[1]}, {1e3 * v[2]:.2f} ms, {v[3]:.3g} kg/m^3" for k, v in rho_neg.items())
+           or "none"))
+    rho_fl = at_floor(path + ".h5")
+    print("  particles at the density floor (max at once / set size, first time): " +
+          ("; ".join(f"{k} {v[0]}/{v[1]}, {1e3 * v[2]:.2f} ms" for k, v in rho_fl.items()) or "none"))
     print("  shells (outer radius, spacing): " + ", ".join(f"({Rk:.3g} m, {1e3 * sk:.0f} mm)" for Rk, sk in shells))
     print(f"\n  | Z [m/kg^1/3] | R [m] | KB Pso [kPa] | ejecta Pso shell mean [kPa] | error | max particle [kPa] | "
           f"t peak [ms] | KB ta [ms] |")
@@ -275,6 +296,8 @@ def main():
         print(f"  | {Z:g} | {R:.3f} | {ref / 1e3:.1f} | {pm / 1e3:.1f} | {100 * err:+.1f} % | {px / 1e3:.1f} | "
               f"{1e3 * tp:.2f} | {1e3 * kb_ta(Z, Wb):.2f} |")
     plot(rows, args, name)
+    common.energy_figure(path + ".h5", os.path.join(HERE, "charge_in_air_energy.png"),
+                         title=f"1 kg TNT in free air, nc {args.nc:g}, alpha {args.alpha:g}: energy budget")
     print(f"\n  tolerance {100 * TOL:g} % at Z = 1, 2, 3, 4, 5: {'PASS' if ok else 'FAIL'}")
     print(f"charge_in_air: {'PASS' if ok else 'FAIL'}")
     return 0 if ok else 1

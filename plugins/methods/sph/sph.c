@@ -37,6 +37,7 @@ typedef struct sph_config {
   ej_real h_min, h_max;
   ej_real alpha, beta, eta;
   ej_real rho_min;
+  ej_real drho_max;
   bool strength;
   int stress_rate;
   bool art_stress;
@@ -127,6 +128,12 @@ static const ej_param sph_params[] = {
                   EJ_PF_HAS_MIN | EJ_PF_HAS_MAX | EJ_PF_MAX_OPEN | EJ_PF_EXPERT,
                   "Density floor as a fraction of each particle's initial density m/vol0; guards "
                   "the EOS and h against expansion into vacuum."),
+    EJ_PARAM_REAL(sph_config, drho_max, "1", 0.5, 0.0, 0.0,
+                  EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN | EJ_PF_EXPERT,
+                  "Bound on the relative density change per step before the CFL factor: dt <= drho_max "
+                  "rho/|rho_dot| with rho_dot the full rate of the last evaluation (method and interactions), "
+                  "so that a strong expansion cannot overshoot rho below zero (0.5: at most cfl x 0.5 = 0.15 "
+                  "per step at the default CFL, as ulpd's |tr L| dt <= 1/2). Not used with density: summation."),
     EJ_PARAM_BOOL(sph_config, strength, 0,
                   "Solid mechanics: the material's strength model gives the Cauchy stress (Libersky-Petschek "
                   "form, README); required when the material has a strength model, because the method's "
@@ -1380,6 +1387,20 @@ static ej_err sph_solid_force_pass(const sph_state *s, ej_set *set, const ej_nbr
 static ej_err sph_post_step(void *state, ej_set *set, ej_range r)
 {
   const sph_state *s = state;
+  /* Density floor after the integrator's corrector (rho = rho_half + dt/2 rho_dot(t_n+1)): the
+   * floor of pass 0 acts on the predictor only, so without this a corrector that overshoots leaves
+   * rho < floor (even < 0) in the state that is output and carried to the next step. The floor is
+   * positive for rho_min > 0; a NaN is left for pass 0 to report. e, v and the energy budget are
+   * untouched (rho does not enter the energy). */
+  {
+    ej_real *rho = ej_set_field(set, "rho");
+    const ej_real *m = ej_set_field(set, "m"), *vol0 = ej_set_field(set, "vol0");
+    EJ_ENSURE(rho && m && vol0, EJ_ERR_INTERNAL, "set '%s': sph fields missing", s->set_name);
+    for (ej_idx i = r.begin; i < r.end; ++i) {
+      const ej_real floor = sph_rho_floor(&s->cfg, m[i], vol0[i]);
+      if (rho[i] < floor) rho[i] = floor;
+    }
+  }
   if (!s->cfg.strength || !(s->cfg.xsph > 0.0)) return EJ_OK;
   ej_real *x = ej_set_field(set, "x");
   const ej_real *vx = ej_set_field(set, "v_xsph");
@@ -1491,8 +1512,19 @@ static ej_err sph_stable_dt(void *state, const ej_set *set, ej_range r, ej_real 
   /* solids: the particle speed joins the signal speed (001 §1.11, with its erratum: the EOS or
    * material sound speed, whichever is larger, instead of sqrt(E/rho)) */
   const ej_real *restrict v = s->cfg.strength ? ej_set_field(set, "v") : NULL;
+  /* Relative density rate bound dt_i = drho_max rho_i/|rho_dot_i| (the criterion of ulpd, |tr L| dt
+   * <= 1/2, for the continuity equation). The core calls stable_dt after the method's passes AND
+   * the interactions (core/src/sim.c: ej_compute_all, then ej_next_dt), so rho_dot here is the full
+   * rate of t_n+1, interface share (continuum, pd_sph) included, which is the rate the next drift
+   * uses for the density predictor rho + dt rho_dot. With summation density rho_dot is a function
+   * of dt itself (sph_sum_rows) and the bound is not applied. */
+  const ej_real *restrict rho = ej_set_field(set, "rho");
+  const ej_real *restrict rho_dot = s->cfg.density == SPH_DENS_CONTINUITY ? ej_set_field(set, "rho_dot") : NULL;
+  EJ_ENSURE(rho, EJ_ERR_INTERNAL, "set '%s': sph field rho missing", s->set_name);
+  const ej_real cr = s->cfg.drho_max;
   ej_real best = HUGE_VAL;
   for (ej_idx i = r.begin; i < r.end; ++i) {
+    if (rho_dot && fabs(rho_dot[i]) * best > cr * rho[i]) best = cr * rho[i] / fabs(rho_dot[i]);
     const ej_real vi = v ? sqrt(v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]) : 0.0;
     const ej_real sig = c[i] + vi + 1.2 * (alpha * c[i] + beta * mu[i]);
     if (sig > 0.0) best = fmin(best, h[i] / sig);
