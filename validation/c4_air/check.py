@@ -232,6 +232,20 @@ def main():
         print(f"    one set (sharp jump): run failed ({e}): not usable")
 
     plot(results, ref)
+    # through the user tools: the energy budget of the sph 0.1 mm C4 run (tools/plot_series.py)
+    # and the air density of the two-set ideal-gas analog against its exact Riemann solution
+    # (tools/compare.py, air set only, last frame; the reference starts at the exact contact u* t)
+    common.energy_figure(os.path.join(args.out, "c4_air_sph_0.1mm.h5"), os.path.join(HERE, "c4_air_energy.png"),
+                         title="C4 into air, sph dx 0.1 mm: energy budget")
+    xe = np.linspace(us * t * 1.0001, 0.15, 3001)
+    ref_csv = os.path.join(args.out, "gas_two_sets_exact.csv")
+    np.savetxt(ref_csv, np.column_stack([xe, exact.sample(xe, t, GAS_L, GAS_R)[0]]), delimiter=",",
+               header="x,rho", comments="")
+    l1r, linfr = common.profile_figure(path2, "air", "rho", ref_csv, os.path.join(HERE, "c4_air_gas_compare.png"),
+                                       axis="x")
+    print(f"  tools/compare.py, ideal-gas analog (two sets), air rho(x) at {t * 1e6:.0f} us against the exact "
+          f"solution: L1_rel = {l1r:.4f}, Linf_rel = {linfr:.3f} (shown, not a criterion)")
+    print("  figures: validation/c4_air/c4_air_energy.png, c4_air_gas_compare.png")
     print(f"\nc4_air: {'PASS' if ok else 'FAIL'}")
     return 0 if ok else 1
 

@@ -159,6 +159,14 @@ def main():
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, args.figure), dpi=120)
     print(f"  figure {os.path.join(HERE, args.figure)}")
+    # through tools/plot_series.py: the energy budget (fracture energy included) and the plate's
+    # mean damage against time
+    stem = os.path.splitext(args.figure)[0]
+    common.energy_figure(path, os.path.join(HERE, f"{stem}_energy.png"),
+                         title=f"Kalthoff-Winkler, PMB 2D, dx = {args.dx * 1e3:g} mm: energy budget")
+    common.energy_figure(path, os.path.join(HERE, f"{stem}_damage.png"), series=["plate/damage_mean"],
+                         title=f"Kalthoff-Winkler, PMB 2D, dx = {args.dx * 1e3:g} mm: mean damage")
+    print(f"  figures {stem}_energy.png, {stem}_damage.png")
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1
 

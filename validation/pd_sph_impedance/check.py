@@ -21,6 +21,8 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, os.path.dirname(HERE))
+import common  # noqa: E402  (the user-tool figures: tools/plot_series.py, tools/compare.py)
 
 
 def scene(out, dx, rho2, K2, form, t_end, left="tlpd", alpha=0.0, extra="", fluid_extra="", dim=1, nt=4):
@@ -114,6 +116,7 @@ def run_case(build, dx, rho2, K2, form, tmp, left="tlpd", extra="", fluid_extra=
         sig_th = -Z1 * v0 / 2
         k = keys[-1]
         g = f["frames"][k]
+        t_last = float(g.attrs["time"])
         xb = g["bar"]["x"][:, 0]
         sb = g["bar"]["stress"][:, 0] if "stress" in g["bar"] else -g["bar"]["p"][:]
         xf = g["fluid"]["x"][:, 0]
@@ -129,7 +132,8 @@ def run_case(build, dx, rho2, K2, form, tmp, left="tlpd", extra="", fluid_extra=
     st = -pf[wf][np.argmax(np.abs(pf[wf]))]
     T, R = 2 * Z2 / (Z1 + Z2), (Z2 - Z1) / (Z1 + Z2)
     res = dict(sig_th=sig_th, Z1=Z1, Z2=Z2, T_exp=T, R_exp=R, T=st / sig_i, R=sr / sig_i, xb=xb, sb=sb, xf=xf, pf=pf,
-               sig_i=sig_i, balance=float(np.max(np.abs(bal))) / float(kin[0]), px=px)
+               sig_i=sig_i, balance=float(np.max(np.abs(bal))) / float(kin[0]), px=px, path=out,
+               t_last=t_last, c1=c1, c2=c2, v0=v0)
     return res
 
 
@@ -162,6 +166,23 @@ def main():
             print(f"form {a.form}, Z2/Z1 = {r['Z2'] / r['Z1']:.3f}: T = {r['T']:.4f} (exact {r['T_exp']:.4f}, "
                   f"{100 * eT:+.2f} %), R = {r['R']:.4f} (exact {r['R_exp']:.4f}, {100 * eR:+.2f} %), "
                   f"incident {r['sig_i'] / r['sig_th']:.4f} of Z1 v0/2, max |balance|/KE0 = {r['balance']:.2e}, momentum drift {r['px'][-1] - r['px'][0]:.3e}")
+            if rho2 == cases[0][0]:
+                # the first pair through the user tools: fluid pressure along x against linear
+                # acoustics (the transmitted half of the cos^2 pulse of scene(): W = 0.1 m, centre
+                # 0.35 m, scaled by T; tools/compare.py), and the energy budget (tools/plot_series.py)
+                sfx = "" if a.dim == 1 else "_3d"
+                xe = np.linspace(0.5, 1.0, 2001)
+                xs = 0.5 - r["c1"] * (r["t_last"] - (xe - 0.5) / r["c2"])  # source point of the incident half
+                shape = np.where(np.abs(xs - 0.35) < 0.05, np.cos(np.pi * (xs - 0.35) / 0.1) ** 2, 0.0)
+                ref_csv = os.path.join(tmp, "transmitted.csv")
+                np.savetxt(ref_csv, np.column_stack([xe, r["T_exp"] * r["Z1"] * r["v0"] / 2 * shape]),
+                           delimiter=",", header="x,p", comments="")
+                l1r, linfr = common.profile_figure(r["path"], "fluid", "p", ref_csv,
+                                                   os.path.join(HERE, f"pd_sph_impedance{sfx}_compare.png"), axis="x")
+                common.energy_figure(r["path"], os.path.join(HERE, f"pd_sph_impedance{sfx}_energy.png"),
+                                     title=f"PD-SPH interface, Z2/Z1 = {r['Z2'] / r['Z1']:.2f}, form {a.form}: energy budget")
+                print(f"  tools/compare.py, fluid p(x) at t = {r['t_last'] * 1e3:.4f} ms against linear acoustics: "
+                      f"L1_rel = {l1r:.4f}, Linf_rel = {linfr:.3f} (shown, not a criterion)")
             ax.plot(r["xb"], -r["sb"] / -r["sig_i"], label="PD bar: stress / incident")
             ax.plot(r["xf"], r["pf"] / -r["sig_i"], label="SPH fluid: -pressure / incident")
             ax.axhline(r["T_exp"], ls=":", c="k", lw=0.8)

@@ -115,6 +115,9 @@ def main():
             ax.plot(r / R_I, d["x"][:, 2] / R_I, ".", ms=2, label=lab)
             ax2.plot(t, ro, "-o", ms=3, label=lab)
             results.setdefault(model, {})[dx] = e
+            if model == args.models[0] and dx == min(args.spacing):  # the reference run's energy budget
+                common.energy_figure(path, os.path.join(HERE, "sand_collapse_energy.png"),
+                                     title=f"sand collapse, {model}, dx {dx * 1e3:g} mm: energy budget")
     ax.axvline(REF["run_out"], color="k", ls="--", label="experiment r_inf/r_i = 1.62")
     ax.axhline(REF["height"], color="k", ls=":", label="experiment h_inf/r_i = 0.50")
     ax.set_xlabel("r / r_i")

@@ -214,6 +214,20 @@ def run_case(exe, args, dx, xi0, gradient, extra):
     fig.savefig(os.path.join(HERE, f"sedov{tag}.png"), dpi=110)
     plt.close(fig)
     print(f"  figure: validation/sedov/sedov{tag}.png")
+    # through the user tools: the energy budget (tools/plot_series.py) and the density along the
+    # x axis (particles within 1.5 spacings of it) against the self-similar profile (tools/compare.py)
+    common.energy_figure(path, os.path.join(HERE, f"sedov{tag}_energy.png"),
+                         title=f"Sedov-Taylor blast, spacing {dx:g} m, gradient {gradient}: energy budget")
+    ref_csv = os.path.join(args.out, f"sedov{tag}_{dx:g}_selfsimilar.csv")
+    rr = np.concatenate([xs * Re, [Re * (1 + 1e-9), 0.6]])
+    np.savetxt(ref_csv, np.column_stack([rr, np.concatenate([gs * RHO, [RHO, RHO]])]), delimiter=",",
+               header="r,rho", comments="")
+    l1r, linfr = common.profile_figure(path, "gas", "rho", ref_csv,
+                                       os.path.join(HERE, f"sedov{tag}_compare.png"), line=[0, 0, 0, 0.6, 0, 0],
+                                       width=1.5 * dx)
+    print(f"  tools/compare.py, rho along the x axis at t = {t:.3f} s against the self-similar profile: "
+          f"L1_rel = {l1r:.4f}, Linf_rel = {linfr:.3f} (shown, not a criterion); figures sedov{tag}_energy.png, "
+          f"sedov{tag}_compare.png")
     print(f"  gradient {gradient}: {'PASS' if ok else 'FAIL'}")
     return ok
 

@@ -141,6 +141,10 @@ def main():
     ax[1].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "tlpd_harmonic.png"), dpi=110)
+    if True in res:  # the objective run's energy budget through tools/plot_series.py
+        common.energy_figure(os.path.join(a.out, f"harmonic_n{a.n}_objective.h5"),
+                             os.path.join(HERE, "tlpd_harmonic_energy.png"),
+                             title=f"tlpd harmonic column (objective), n = {a.n}: energy budget")
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1
 

@@ -155,6 +155,12 @@ def main():
     ax.legend()
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "tlpd_hourglass.png" if a.load == "impact" else "tlpd_hourglass_push.png"), dpi=110)
+    # the controlled run's energy budget (hourglass-control energy included) through tools/plot_series.py
+    hg_name = "hg_zhu_zhao" + ("" if a.load == "push" else "_" + a.load)
+    hg_path = os.path.join(a.out, hg_name + ".h5")
+    common.energy_figure(hg_path if os.path.exists(hg_path) else hg_path + ".partial",
+                         os.path.join(HERE, "tlpd_hourglass_energy.png" if a.load == "impact" else "tlpd_hourglass_push_energy.png"),
+                         title=f"tlpd hourglass control (zhu_zhao, {a.load} load): energy budget")
     ok = bounded and grows
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1

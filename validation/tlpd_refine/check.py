@@ -150,6 +150,8 @@ def main():
     fig.suptitle(f"pulse half-width a = {A} m = {A / DXC:g} coarse spacings", fontsize=9)
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, f"tlpd_refine_a{A:g}{tagx}.png"), dpi=110)
+    common.energy_figure(runs["refined"], os.path.join(HERE, f"tlpd_refine_a{A:g}{tagx}_energy.png"),
+                         title=f"tlpd refined bar (4 mm / 8 mm), a = {A} m: energy budget")
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1
 

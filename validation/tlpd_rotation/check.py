@@ -166,6 +166,9 @@ def main():
         axk.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "tlpd_rotation.png"), dpi=110)
+    if res[("stiff", True)] is not None:  # the judged run's energy budget through tools/plot_series.py
+        common.energy_figure(res[("stiff", True)], os.path.join(HERE, "tlpd_rotation_energy.png"),
+                             title="tlpd rotating column, stiff, objective: energy budget")
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1
 

@@ -141,6 +141,17 @@ def main():
     ax[1].set_title("displacement profile (dashed: uniaxial strain)")
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "tlpd_soil_column.png"), dpi=110)
+    # The 30 kPa run (the last) through the user tools: sigma_zz along z at the end against the
+    # static uniaxial-strain state sigma_zz = -P0 (the derivative of the settlement profile
+    # u_z = P0 z / (lambda + 2 mu); tools/compare.py), and the energy budget (tools/plot_series.py).
+    ref_csv = os.path.join(a.out, f"column_{int(p0 / 1e3)}kPa_static.csv")
+    np.savetxt(ref_csv, np.column_stack([[0.0, H], [-p0, -p0]]), delimiter=",", header="z,szz", comments="")
+    l1r, linfr = common.profile_figure(out, "col", "stress", ref_csv, os.path.join(HERE, "tlpd_soil_column_compare.png"),
+                                       component="zz", axis="z")
+    common.energy_figure(out, os.path.join(HERE, "tlpd_soil_column_energy.png"),
+                         title=f"tlpd soil column, P0 = {p0 / 1e3:g} kPa, dx = {dx:.4g} m: energy budget")
+    print(f"tools/compare.py, sigma_zz(z) at the end of the {p0 / 1e3:g} kPa run against -P0: L1_rel = {l1r:.4f}, "
+          f"Linf_rel = {linfr:.3f} (shown, not a criterion); figures tlpd_soil_column_compare.png, tlpd_soil_column_energy.png")
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1
 

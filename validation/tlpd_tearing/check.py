@@ -97,6 +97,10 @@ def main():
     ax[1].set_title(f"energy: max|balance| / max W_ext = {bal:.1e}")
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "tlpd_tearing.png"), dpi=110)
+    # through tools/plot_series.py: the energy budget and the bar's mean damage against time
+    common.energy_figure(out, os.path.join(HERE, "tlpd_tearing_energy.png"), title="tlpd tearing bar: energy budget")
+    common.energy_figure(out, os.path.join(HERE, "tlpd_tearing_damage.png"), series=["bar/mean_damage"],
+                         title="tlpd tearing bar: mean damage")
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1
 

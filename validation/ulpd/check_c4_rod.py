@@ -92,6 +92,10 @@ def main():
     fig.savefig(os.path.join(HERE, "ulpd_c4_rod.png"), dpi=110)
     plt.close(fig)
     print("  figure: validation/ulpd/ulpd_c4_rod.png")
+    common.energy_figure(os.path.join(args.outdir, f"ulpd_c4_rod_dx{spacings[-1] * 1e6:.0f}um.h5"),
+                         os.path.join(HERE, "ulpd_c4_rod_energy.png"),
+                         title=f"C4 rod with ulpd, dx = {spacings[-1] * 1e3:g} mm: energy budget")
+    print("  figure: validation/ulpd/ulpd_c4_rod_energy.png (tools/plot_series.py)")
     print(f"ulpd c4 rod: {'PASS' if ok else 'FAIL'}")
     return 0 if ok else 1
 

@@ -126,6 +126,9 @@ def main():
     fig.savefig(os.path.join(HERE, f"ulpd_sedov_{dx:g}.png"), dpi=110)
     plt.close(fig)
     print(f"  figure: validation/ulpd/ulpd_sedov_{dx:g}.png")
+    common.energy_figure(path, os.path.join(HERE, f"ulpd_sedov_{dx:g}_energy.png"),
+                         title=f"Sedov-Taylor blast with ulpd, spacing {dx:g} m: energy budget")
+    print(f"  figure: validation/ulpd/ulpd_sedov_{dx:g}_energy.png (tools/plot_series.py)")
     print(f"ulpd sedov: {'PASS' if ok else 'FAIL'}")
     return 0 if ok else 1
 

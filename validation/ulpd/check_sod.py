@@ -250,6 +250,19 @@ def main():
                       "Sod 3D periodic tube with ulpd, projected on x", os.path.join(HERE, "ulpd_sod_3d.png"))
     plot_convergence(res, os.path.join(HERE, "ulpd_sod_convergence.png"))
     print("  figures: validation/ulpd/ulpd_sod_1d.png, ulpd_sod_3d.png, ulpd_sod_convergence.png")
+    # the finest regular 1D run through the user tools: density along x against the exact
+    # solution (tools/compare.py) and the energy budget (tools/plot_series.py)
+    finest = os.path.join(args.out, f"ulpd_sod_1d_{h1[-1]:g}.h5")
+    xe = np.linspace(-0.5, 0.5, 2001)
+    ref_csv = os.path.join(args.out, "sod_exact.csv")
+    np.savetxt(ref_csv, np.column_stack([xe, exact.sample(xe, T_END, exact.SOD_LEFT, exact.SOD_RIGHT)[0]]),
+               delimiter=",", header="x,rho", comments="")
+    l1r, linfr = common.profile_figure(finest, "tube", "rho", ref_csv, os.path.join(HERE, "ulpd_sod_1d_compare.png"),
+                                       axis="x")
+    common.energy_figure(finest, os.path.join(HERE, "ulpd_sod_1d_energy.png"),
+                         title=f"Sod 1D with ulpd, spacing {h1[-1]:g} m: energy budget")
+    print(f"  tools/compare.py on the finest 1D run: L1_rel(rho) = {l1r:.4f}, Linf_rel = {linfr:.3f}; figures "
+          "ulpd_sod_1d_compare.png, ulpd_sod_1d_energy.png")
     print(f"ulpd sod: {'PASS' if ok else 'FAIL'}")
     return 0 if ok else 1
 
