@@ -387,6 +387,10 @@ struct ej_nbrlist {
   ej_idx *cell_of;    /* [item_cap] */
   int64_t cell_cap;
   ej_idx item_cap;
+  /* one-pass build scratch: per-thread buffers of one block of rows */
+  ej_idx **tbuf; /* [n_tbuf] */
+  int64_t *tcap; /* [n_tbuf] */
+  int n_tbuf;
 };
 
 ej_err ej_nbrlist_create(ej_nbrlist **L);

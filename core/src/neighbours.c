@@ -1,14 +1,20 @@
 /* Cell-list neighbour search on a uniform grid and CSR lists (DESIGN.md "Neighbours").
  *
- * A build bins the candidates into cells by a stable counting sort, then makes two passes
- * over the rows: one counts each row's pairs, one fills them. Each row is written only by
- * the thread that owns it and sorted ascending, so the list is bitwise identical for any
- * OpenMP thread count (DESIGN.md "Determinism"). */
+ * A build splits the candidates into radius classes, bins each class into its own grid of
+ * cells (one stable counting sort over all the cells), then scans each row once
+ * into the buffer of the thread that takes its block of rows; a prefix sum of the row counts
+ * places the blocks in the CSR arrays. Each row is sorted ascending and its content does not
+ * depend on the thread, so the list is bitwise identical for any OpenMP thread count
+ * (DESIGN.md "Determinism"). */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
 
 #include "core_impl.h"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #if defined(__GNUC__)
 #define EJ_ALWAYS_INLINE inline __attribute__((always_inline))
@@ -220,6 +226,9 @@ void ej_nbrlist_destroy(ej_nbrlist *L)
   ej_free(L->cell_start);
   ej_free(L->cell_items);
   ej_free(L->cell_of);
+  for (int t = 0; t < L->n_tbuf; t++) ej_free(L->tbuf[t]);
+  ej_free(L->tbuf);
+  ej_free(L->tcap);
   ej_free(L);
 }
 
@@ -311,39 +320,179 @@ static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, cons
   return n;
 }
 
-static void ej_rows_count(const ej_grid *g, int dim, const ej_real *xa, const ej_real *ra, ej_idx na,
-                          const ej_real *xb, const ej_real *rb, ej_real rb_max, ej_real skin, bool same,
-                          const ej_idx *cell_start, const ej_idx *cell_items, ej_off *off)
+/* Rows per block of the one-pass build: a block's rows are scanned by one thread into its
+ * buffer, then copied to their CSR place. */
+#define EJ_ROW_BLOCK 256
+
+static EJ_ALWAYS_INLINE ej_idx ej_row_scan_dim(const ej_grid *g, int dim, const ej_real *xi, ej_real ri, ej_idx i,
+                                               const ej_real *xb, const ej_real *rb, ej_real rb_max, ej_real skin,
+                                               bool same, const ej_idx *cell_start, const ej_idx *cell_items,
+                                               ej_idx *out, ej_idx len)
 {
-#pragma omp parallel for schedule(dynamic, 256)
-  for (ej_idx i = 0; i < na; i++) {
-    const ej_real *xi = xa + 3 * (size_t)i;
-    ej_idx c;
-    switch (dim) {
-    case 1: c = ej_row_scan(g, 1, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, NULL, 0); break;
-    case 2: c = ej_row_scan(g, 2, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, NULL, 0); break;
-    default: c = ej_row_scan(g, 3, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, NULL, 0); break;
-    }
-    off[i + 1] = c;
+  switch (dim) {
+  case 1: return ej_row_scan(g, 1, xi, ri, i, xb, rb, rb_max, skin, same, cell_start, cell_items, out, len);
+  case 2: return ej_row_scan(g, 2, xi, ri, i, xb, rb, rb_max, skin, same, cell_start, cell_items, out, len);
+  default: return ej_row_scan(g, 3, xi, ri, i, xb, rb, rb_max, skin, same, cell_start, cell_items, out, len);
   }
 }
 
-static void ej_rows_fill(const ej_grid *g, int dim, const ej_real *xa, const ej_real *ra, ej_idx na,
-                         const ej_real *xb, const ej_real *rb, ej_real rb_max, ej_real skin, bool same,
-                         const ej_idx *cell_start, const ej_idx *cell_items, const ej_off *off, ej_idx *idx)
+/* Grows one thread's row buffer to hold at least need entries, keeping its first keep. */
+static bool ej_tbuf_grow(ej_idx **buf, int64_t *cap, int64_t keep, int64_t need)
 {
-#pragma omp parallel for schedule(dynamic, 256)
-  for (ej_idx i = 0; i < na; i++) {
-    const ej_real *xi = xa + 3 * (size_t)i;
-    ej_idx *row = idx + off[i];
-    const ej_idx len = (ej_idx)(off[i + 1] - off[i]);
-    switch (dim) {
-    case 1: ej_row_scan(g, 1, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, row, len); break;
-    case 2: ej_row_scan(g, 2, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, row, len); break;
-    default: ej_row_scan(g, 3, xi, ra[i], i, xb, rb, rb_max, skin, same, cell_start, cell_items, row, len); break;
-    }
-    ej_idx_sort(row, len);
+  int64_t want = *cap * 2 > need ? *cap * 2 : need;
+  if (want < 4096) want = 4096;
+  if ((uint64_t)want > SIZE_MAX / sizeof **buf) return false;
+  ej_idx *nb = ej_malloc((size_t)want * sizeof *nb);
+  if (!nb) return false;
+  if (keep > 0) memcpy(nb, *buf, (size_t)keep * sizeof *nb);
+  ej_free(*buf);
+  *buf = nb;
+  *cap = want;
+  return true;
+}
+
+/* Candidates are split into radius classes (class c: rb in (rb_max / 2^(c+1), rb_max / 2^c],
+ * the last class takes every smaller radius), each binned in its own grid of cells sized by
+ * the class's largest radius. A row scans class c with the ball max(ri, rmax_c) + skin, so a
+ * small particle of a graded set no longer scans the ball of the largest radius. The pairs
+ * found are the same whatever the classes; the row is sorted afterwards. */
+#define EJ_NCLASS 8
+
+typedef struct ej_classes {
+  int n;                      /* classes with members, in use: cls[0..n) */
+  ej_grid g[EJ_NCLASS];
+  ej_real rmax[EJ_NCLASS];
+  const ej_idx *start[EJ_NCLASS]; /* cell_start of the class's grid (global cell_items positions) */
+} ej_classes;
+
+static EJ_ALWAYS_INLINE int ej_radius_class(ej_real r, ej_real rb_max)
+{
+  int c = 0;
+  ej_real t = 0.5 * rb_max;
+  while (c < EJ_NCLASS - 1 && r <= t) {
+    c++;
+    t *= 0.5;
   }
+  return c;
+}
+
+/* Scans row i over every class into out[0..len); returns len when the row may not fit. */
+static EJ_ALWAYS_INLINE ej_idx ej_row_scan_classes(const ej_classes *K, int dim, const ej_real *xi, ej_real ri,
+                                                   ej_idx i, const ej_real *xb, const ej_real *rb, ej_real skin,
+                                                   bool same, const ej_idx *cell_items, ej_idx *out, ej_idx len)
+{
+  ej_idx n = 0;
+  for (int c = 0; c < K->n; c++) {
+    n += ej_row_scan_dim(&K->g[c], dim, xi, ri, i, xb, rb, K->rmax[c], skin, same, K->start[c], cell_items, out + n,
+                         len - n);
+    if (n == len) return len;
+  }
+  return n;
+}
+
+/* Grows the list's column array to at least need entries, keeping its first keep; est is the
+ * expected final size (extrapolated from the blocks done), so that the array is mostly
+ * allocated once, as large as the list: the peak memory stays about one list. */
+static bool ej_idx_grow_keep(ej_nbrlist *L, int64_t keep, int64_t need, int64_t est)
+{
+  int64_t want = est > need ? est : need;
+  want += want / 8 + 64;
+  if (want < L->idx_cap + L->idx_cap / 4) want = L->idx_cap + L->idx_cap / 4;
+  if ((uint64_t)want > SIZE_MAX / sizeof *L->idx) return false;
+  ej_idx *p = ej_malloc((size_t)want * sizeof *p);
+  if (!p) return false;
+  if (keep > 0) memcpy(p, L->idx, (size_t)keep * sizeof *p);
+  ej_free(L->idx);
+  L->idx = p;
+  L->idx_cap = want;
+  return true;
+}
+
+/* One scan per row: each block of EJ_ROW_BLOCK rows is scanned (and each row sorted) into the
+ * buffer of the thread that takes it, row lengths going to off[i + 1]; then, in block order
+ * (an ordered region: only the copy is serialised), the block is appended to the CSR column
+ * array. The rows do not depend on the thread, so the arrays are the same for any thread
+ * count, and only the list (plus one block per thread) is held in memory. Returns false when
+ * memory runs out. */
+static bool ej_rows_scan(ej_nbrlist *L, const ej_classes *K, int dim, const ej_real *xa, const ej_real *ra, ej_idx na,
+                         const ej_real *xb, const ej_real *rb, ej_real skin, bool same, const ej_idx *cell_items,
+                         int64_t n_blk)
+{
+  ej_off *off = L->off;
+  int64_t pos = 0;  /* end of the blocks appended so far (ordered region only) */
+  int lost = 0;     /* the column array could not grow (ordered region only) */
+  int fail = 0;
+#pragma omp parallel reduction(| : fail)
+  {
+#ifdef _OPENMP
+    const int t = omp_get_thread_num();
+#else
+    const int t = 0;
+#endif
+    ej_idx *buf = L->tbuf[t];
+    int64_t cap = L->tcap[t];
+#pragma omp for ordered schedule(dynamic, 1)
+    for (int64_t b = 0; b < n_blk; b++) {
+      int64_t used = 0;
+      const ej_idx i1 = (b + 1) * EJ_ROW_BLOCK < na ? (ej_idx)((b + 1) * EJ_ROW_BLOCK) : na;
+      for (ej_idx i = (ej_idx)(b * EJ_ROW_BLOCK); i < i1 && !fail; i++) {
+        const ej_real *xi = xa + 3 * (size_t)i;
+        ej_idx n = 0;
+        for (;;) {
+          if (cap - used < 64 && !ej_tbuf_grow(&buf, &cap, used, used + 64)) {
+            fail = 1;
+            break;
+          }
+          const int64_t room = cap - used;
+          const ej_idx len = room < INT32_MAX ? (ej_idx)room : INT32_MAX;
+          n = ej_row_scan_classes(K, dim, xi, ra[i], i, xb, rb, skin, same, cell_items, buf + used, len);
+          if (n < len) break;
+          /* the row may not fit: rescan it into a buffer at least twice as roomy */
+          if (!ej_tbuf_grow(&buf, &cap, used, used + 2 * (int64_t)len)) {
+            fail = 1;
+            break;
+          }
+        }
+        if (fail) break;
+        ej_idx_sort(buf + used, n);
+        off[i + 1] = n;
+        used += n;
+      }
+#pragma omp ordered
+      {
+        if (!fail && !lost) {
+          if (pos + used > L->idx_cap && !ej_idx_grow_keep(L, pos, pos + used, (pos + used) / (b + 1) * n_blk))
+            lost = 1;
+          if (!lost && used) memcpy(L->idx + pos, buf, (size_t)used * sizeof *buf);
+          pos += used;
+        }
+      }
+    }
+    L->tbuf[t] = buf;
+    L->tcap[t] = cap;
+  }
+  return !fail && !lost;
+}
+
+/* Per-thread block buffers for n_thr threads. */
+static ej_err ej_scan_scratch(ej_nbrlist *L, int n_thr)
+{
+  if (n_thr > L->n_tbuf) {
+    ej_idx **tb = ej_calloc((size_t)n_thr, sizeof *tb);
+    int64_t *tc = ej_calloc((size_t)n_thr, sizeof *tc);
+    if (!tb || !tc) {
+      ej_free(tb);
+      ej_free(tc);
+      EJ_FAIL(EJ_ERR_MEM, "out of memory for %d neighbour buffers", n_thr);
+    }
+    for (int t = 0; t < L->n_tbuf; t++) tb[t] = L->tbuf[t], tc[t] = L->tcap[t];
+    ej_free(L->tbuf);
+    ej_free(L->tcap);
+    L->tbuf = tb;
+    L->tcap = tc;
+    L->n_tbuf = n_thr;
+  }
+  return EJ_OK;
 }
 
 /* At most this many cells per candidate: beyond it memory, not search time, dominates. */
@@ -401,14 +550,7 @@ ej_err ej_nbrlist_build(ej_nbrlist *L, int dim, const ej_real *xa, const ej_real
     return EJ_OK;
   }
 
-  ej_grid g;
-  EJ_TRY(ej_grid_setup(&g, dim, xb, nb, h, ej_cell_limit(nb)));
-
-  /* Bin candidates by a stable counting sort: cell_items lists j ascending within a cell. */
-  cap = L->cell_cap + 1;
-  rc = ej_scratch_grow((void **)&L->cell_start, &cap, g.n_cells + 1, sizeof *L->cell_start, false);
-  L->cell_cap = cap > 0 ? cap - 1 : 0;
-  EJ_TRY(rc);
+  /* Radius classes: members, largest radius, grid and first cell of each. */
   if (nb > L->item_cap) {
     int64_t c1 = L->item_cap, c2 = L->item_cap;
     L->item_cap = 0;
@@ -417,27 +559,70 @@ ej_err ej_nbrlist_build(ej_nbrlist *L, int dim, const ej_real *xa, const ej_real
     EJ_TRY(rc);
     L->item_cap = (ej_idx)(c1 < c2 ? c1 : c2);
   }
-  ej_idx *cell_start = L->cell_start, *cell_items = L->cell_items, *cell_of = L->cell_of;
+  ej_idx *cell_items = L->cell_items, *cell_of = L->cell_of;
 #pragma omp parallel for schedule(static)
-  for (ej_idx j = 0; j < nb; j++) cell_of[j] = (ej_idx)ej_grid_cell(&g, xb + 3 * (size_t)j);
-  memset(cell_start, 0, ((size_t)g.n_cells + 1) * sizeof *cell_start);
+  for (ej_idx j = 0; j < nb; j++) cell_of[j] = ej_radius_class(rb[j], rb_max);
+  ej_idx n_in[EJ_NCLASS] = {0};
+  ej_real r_in[EJ_NCLASS] = {0};
+  for (ej_idx j = 0; j < nb; j++) {
+    const int c = (int)cell_of[j];
+    n_in[c]++;
+    if (rb[j] > r_in[c]) r_in[c] = rb[j];
+  }
+  ej_classes K;
+  int cls_of[EJ_NCLASS];
+  int64_t base[EJ_NCLASS + 1];
+  K.n = 0;
+  base[0] = 0;
+  int n_used = 0;
+  for (int c = 0; c < EJ_NCLASS; c++) n_used += n_in[c] > 0;
+  for (int c = 0; c < EJ_NCLASS; c++) {
+    cls_of[c] = -1;
+    if (!n_in[c]) continue;
+    const int k = K.n++;
+    cls_of[c] = k;
+    K.rmax[k] = r_in[c];
+    /* the first class (largest radii) keeps the cell of the former single grid */
+    ej_real hc = k == 0 ? h : (r_in[c] + skin) / EJ_CELL_SPLIT;
+    if (!(hc > 0)) hc = h; /* zero radii and skin: their pairs are the rows' */
+    /* at most 4 nb + 64 cells over all classes, as with one grid */
+    EJ_TRY(ej_grid_setup(&K.g[k], dim, xb, nb, hc, 4 * (int64_t)n_in[c] + 64 / n_used));
+    base[k + 1] = base[k] + K.g[k].n_cells;
+  }
+  const int64_t n_cells = base[K.n];
+  EJ_ENSURE(n_cells < INT32_MAX - 1, EJ_ERR_MEM, "neighbour grid of %lld cells is too large", (long long)n_cells);
+
+  /* Bin candidates by a stable counting sort: cell_items lists j ascending within a cell. */
+  cap = L->cell_cap + 1;
+  rc = ej_scratch_grow((void **)&L->cell_start, &cap, n_cells + 1, sizeof *L->cell_start, false);
+  L->cell_cap = cap > 0 ? cap - 1 : 0;
+  EJ_TRY(rc);
+  ej_idx *cell_start = L->cell_start;
+#pragma omp parallel for schedule(static)
+  for (ej_idx j = 0; j < nb; j++) {
+    const int k = cls_of[cell_of[j]];
+    cell_of[j] = (ej_idx)(base[k] + ej_grid_cell(&K.g[k], xb + 3 * (size_t)j));
+  }
+  for (int k = 0; k < K.n; k++) K.start[k] = cell_start + base[k];
+  memset(cell_start, 0, ((size_t)n_cells + 1) * sizeof *cell_start);
   for (ej_idx j = 0; j < nb; j++) cell_start[cell_of[j] + 1]++;
-  for (int64_t c = 0; c < g.n_cells; c++) cell_start[c + 1] += cell_start[c];
+  for (int64_t c = 0; c < n_cells; c++) cell_start[c + 1] += cell_start[c];
   /* Scatter with cell_start[c] as the cursor of cell c, then shift it back by one cell. */
   for (ej_idx j = 0; j < nb; j++) cell_items[cell_start[cell_of[j]]++] = j;
-  for (int64_t c = g.n_cells; c > 0; c--) cell_start[c] = cell_start[c - 1];
+  for (int64_t c = n_cells; c > 0; c--) cell_start[c] = cell_start[c - 1];
   cell_start[0] = 0;
 
-  ej_rows_count(&g, dim, xa, ra, na, xb, rb, rb_max, skin, same, cell_start, cell_items, L->off);
-  for (ej_idx i = 0; i < na; i++) L->off[i + 1] += L->off[i];
-
-  cap = L->idx_cap;
-  rc = ej_scratch_grow((void **)&L->idx, &cap, L->off[na], sizeof *L->idx, true);
-  L->idx_cap = cap;
+#ifdef _OPENMP
+  const int n_thr = omp_get_max_threads();
+#else
+  const int n_thr = 1;
+#endif
+  const int64_t n_blk = ((int64_t)na + EJ_ROW_BLOCK - 1) / EJ_ROW_BLOCK;
+  EJ_TRY(ej_scan_scratch(L, n_thr));
+  const bool ok = ej_rows_scan(L, &K, dim, xa, ra, na, xb, rb, skin, same, cell_items, n_blk);
   L->pub.idx = L->idx;
-  EJ_TRY(rc);
-
-  ej_rows_fill(&g, dim, xa, ra, na, xb, rb, rb_max, skin, same, cell_start, cell_items, L->off, L->idx);
+  EJ_ENSURE(ok, EJ_ERR_MEM, "out of memory for the neighbour rows of %d particles", (int)na);
+  for (ej_idx i = 0; i < na; i++) L->off[i + 1] += L->off[i];
   L->pub.n_rows = na;
   return EJ_OK;
 }

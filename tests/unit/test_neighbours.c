@@ -162,6 +162,53 @@ START_TEST(test_set_to_set)
 }
 END_TEST
 
+/* Graded radii (log-uniform over a factor 60, as in a set graded 13 mm .. 800 mm): rows of a
+ * few to several thousand entries, so the one-pass build's per-thread buffers overflow and the
+ * rows are scanned again into grown buffers; the result must still be the brute-force list,
+ * identical for 1, 2 and 3 threads. */
+START_TEST(test_graded_radius)
+{
+  for (int dim = 1; dim <= 3; dim++) {
+    uint64_t s = 7001 + dim;
+    const ej_idx na = 600, nb = 7000;
+    const ej_real size = dim == 1 ? 400 : dim == 2 ? 60 : 16;
+    ej_real *xa = cloud(&s, na, dim, 0, size);
+    ej_real *xb = cloud(&s, nb, dim, 0, size);
+    ej_real *ra = ej_malloc(na * sizeof *ra), *rb = ej_malloc(nb * sizeof *rb);
+    for (ej_idx i = 0; i < na; i++) ra[i] = 0.1 * exp(log(60.0) * rng_uniform(&s));
+    for (ej_idx j = 0; j < nb; j++) rb[j] = 0.1 * exp(log(60.0) * rng_uniform(&s));
+    const int64_t pairs = check_build(dim, xa, ra, na, xb, rb, nb, 0.05, false);
+    ck_assert_int_gt(pairs, 10 * (int64_t)na);
+    check_build(dim, xa, ra, na, xa, ra, na, 0.05, true);
+    /* rows listing the whole cloud (one cell then) */
+    ra[0] = ra[na / 2] = rb[0] = 2 * size;
+    ck_assert_int_gt(check_build(dim, xa, ra, na, xb, rb, nb, 0.05, false), pairs + nb);
+    ej_nbrlist *L1 = NULL, *L2 = NULL;
+    ck_assert_int_eq(ej_nbrlist_create(&L1), EJ_OK);
+    ck_assert_int_eq(ej_nbrlist_create(&L2), EJ_OK);
+    omp_set_num_threads(1);
+    ck_assert_int_eq(ej_nbrlist_build(L1, dim, xb, rb, nb, xb, rb, nb, 0.05, true), EJ_OK);
+    for (int th = 2; th <= 3; th++) {
+      omp_set_num_threads(th);
+      ck_assert_int_eq(ej_nbrlist_build(L2, dim, xb, rb, nb, xb, rb, nb, 0.05, true), EJ_OK);
+      ck_assert(!memcmp(L1->pub.off, L2->pub.off, ((size_t)nb + 1) * sizeof *L1->pub.off));
+      ck_assert(!memcmp(L1->pub.idx, L2->pub.idx, (size_t)L1->pub.off[nb] * sizeof *L1->pub.idx));
+    }
+    omp_set_num_threads(1);
+    ej_off longest = 0;
+    for (ej_idx i = 0; i < nb; i++)
+      if (L1->pub.off[i + 1] - L1->pub.off[i] > longest) longest = L1->pub.off[i + 1] - L1->pub.off[i];
+    ck_assert_int_gt(longest, 4096); /* past the first buffer size of the one-pass build */
+    ej_nbrlist_destroy(L2);
+    ej_nbrlist_destroy(L1);
+    ej_free(rb);
+    ej_free(ra);
+    ej_free(xb);
+    ej_free(xa);
+  }
+}
+END_TEST
+
 START_TEST(test_degenerate)
 {
   uint64_t s = 7;
@@ -522,6 +569,7 @@ static Suite *neighbours_suite(void)
   tcase_add_test(tc, test_self_constant_radius);
   tcase_add_test(tc, test_self_variable_radius);
   tcase_add_test(tc, test_set_to_set);
+  tcase_add_test(tc, test_graded_radius);
   tcase_add_test(tc, test_degenerate);
   tcase_add_test(tc, test_bad_arguments);
   tcase_add_test(tc, test_thread_determinism);
