@@ -16,7 +16,9 @@ Targets (issue 9): 250,000 particle-steps/s per core, speed-up 1.8 on 2 threads.
 runs (os.times of the children) is reported too: particle-steps per CPU-second is the per-core rate
 whatever the machine's load. Measured 2026-11-21 (load average ~18 on 2 cores, so only the CPU-time
 rates mean anything), --n-side 24 --steps 6: msnni 3.5e4 (1 thread) and 2.8e4 (2 threads) per
-CPU-second; dni 4.1e5 (1 thread). The 58^3 default was not run with msnni (about 6 CPU-s per step). Reported
+CPU-second; dni 4.1e5 (1 thread). After the face-group sweeps (plugins/methods/rkpm/README.md,
+"Cost"; load 5-8, --repeats 3): msnni 4.3e4-4.6e4 (1 thread) vs 3.5e4-3.9e4 for the previous code
+in the same sessions (ratio ~1.2), 3.7e4 (2 threads). The 58^3 default was not run with msnni (about 5 CPU-s per step). Reported
 PASS/FAIL, never the exit status (a benchmark, not a test).
 """
 import argparse

@@ -125,6 +125,8 @@ def main():
         passed = exp is not None and abs(err) <= TOL and stopped
         ok &= passed
         rows.append((h, t, pen, delta, exp, err, ue, cpu, v_end))
+        if len(rows) == 1:
+            first = (h, path)
         print(f"h = {h * 1000:.0f} mm: v0 = {math.sqrt(2 * G * h):.3f} m/s, delta = {delta * 1000:.1f} mm, "
               f"delta/d = {delta / D:.3f} (Seguin {exp} +-0.2, error {100 * err:+.1f} %), Uehara {ue * 1000:.1f} mm "
               f"(delta/d {ue / D:.2f}, ours {100 * (delta - ue) / ue:+.1f} %), ball v_z at end {v_end:.3f} m/s, "
@@ -147,6 +149,12 @@ def main():
         ax[1].set_xlabel("H/d"), ax[1].set_ylabel("delta/d"), ax[1].legend(loc="lower right", fontsize=8)
         fig.tight_layout()
         fig.savefig(os.path.join(os.path.dirname(os.path.abspath(__file__)), "sphere_drop.png"), dpi=110)
+        # the first drop height through tools/plot_series.py: the energy budget and the ball's centre z
+        here = os.path.dirname(os.path.abspath(__file__))
+        common.energy_figure(first[1], os.path.join(here, "sphere_drop_energy.png"),
+                             title=f"sphere drop h = {first[0] * 1000:.0f} mm, bed {s * 1000:g} mm: energy budget")
+        common.energy_figure(first[1], os.path.join(here, "sphere_drop_ball.png"), series=["ball/z_cm"],
+                             title=f"sphere drop h = {first[0] * 1000:.0f} mm: ball centre z (rigid_body series)")
     except Exception as e:  # noqa: BLE001
         print("figure not written:", e)
     print("PASS" if ok else "FAIL")

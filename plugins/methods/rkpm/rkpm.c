@@ -59,6 +59,8 @@ static const char *const rk_integrations[] = {"msnni", "scni_box", "dni", NULL};
 #define RK_HB_MAX 1.2
 #define RK_FACE_RCOND 3e-2 /* smallest relative pivot of a face-point moment matrix */
 #define RK_QMAX 0.6124 /* farthest face point from the node, in box edges: sqrt(6)/4 (3D) */
+#define RK_CHUNK 32    /* neighbours per chunk of the face-point sweeps (stack scratch) */
+#define RK_CHUNK2 16   /* nodes L per chunk of the force sweep (stack scratch ~32 kB) */
 
 typedef struct rk_config {
   ej_real support;
@@ -109,18 +111,28 @@ typedef struct rk_state {
   bool sub;          /* msnni with w > 0: sub-box stabilisation stresses */
   int nf, ns, nss;   /* face points, sub-boxes, TENSOR9 fields holding the sub-box stresses */
   ej_real q[RK_NF_MAX][3];
-  ej_real qd[3][RK_NF_MAX];    /* the same offsets, component-major */
   int fnd[RK_NF_MAX];          /* axis of the face normal */
   int fout[RK_NF_MAX];         /* 1: outer face (part of the box boundary) */
   int fsub_m[RK_NF_MAX];       /* outer: its sub-box; inner: the sub-box on the -nd side */
   int fsub_p[RK_NF_MAX];       /* inner: the sub-box on the +nd side (-1 for outer faces) */
   ej_real fsgn[RK_NF_MAX];     /* outer: sign of the normal along nd */
   int flut[125];               /* face index of the offset q (base-5 code), -1 if none */
+  /* Face groups for the sweeps over neighbours: the face points are processed in ng groups of
+   * 4 lanes (padded position p = 4 g + lane; gpos[f] = p of face f, gperm[p] = f or -1 for a
+   * padding lane); group g's points lie within gr[g] (offset units) of gc[g], so a neighbour
+   * whose kernel support misses that ball contributes exact zeros to the whole group and is
+   * skipped (3D: one group per octant with its 3 outer quarter faces and one inner face, plus
+   * the 4 remaining inner faces). Pure bookkeeping: every computed term is the same. */
+  int ng;
+  int gpos[RK_NF_MAX], gperm[RK_NF_MAX];
+  ej_real gq[3][RK_NF_MAX];    /* offsets by padded position (padding lanes: far away, w = 0) */
+  ej_real gc[RK_NF_MAX / 4][3], gr[RK_NF_MAX / 4];
+  int gmap[8][RK_NF_MAX]; /* mirror sign code (bit d: s_d = -1) -> padded position of the source's face */
   /* Face data keyed by particle id (ghosts read their source's row through the id and remap
    * the faces of a mirror image): first row of M^-1 at each face point (b0, b) and the face
    * traction T_f. Allocated in setup, written in gather form (row of an owned particle). */
   ej_idx nid;
-  ej_real *fb; /* [nid][4][nf] */
+  ej_real *fb; /* [nid][4][RK_NF_MAX]: by padded position p (face groups), padding lanes 0 */
   ej_real *ft; /* [nid][3][nf] */
   int32_t *fflag; /* [nid] number of flagged face points (Taylor form) */
 } rk_state;
@@ -159,7 +171,6 @@ static void rk_faces_init(rk_state *s)
       if (d != nd && q[d] > 0) bits |= 1 << d;
     }
     for (int d = D; d < 3; ++d) s->q[f][d] = 0.0;
-    for (int d = 0; d < 3; ++d) s->qd[d][f] = s->q[f][d];
     s->fnd[f] = nd;
     if (n2) {
       s->fout[f] = 1;
@@ -173,6 +184,60 @@ static void rk_faces_init(rk_state *s)
       s->fsub_p[f] = bits | 1 << nd;
     }
   }
+  /* Groups: octant xi takes its outer quarter faces and the inner face whose zero axis is
+   * (number of positive signs of xi) mod dim and whose other signs are xi's; the other inner
+   * faces form the last group. Every group has at most 4 points (checked below). */
+  const int nsub = s->ns;
+  int gcount[RK_NS_MAX + 1] = {0}, gmem[RK_NS_MAX + 1][4];
+  for (int f = 0; f < s->nf; ++f) {
+    int g = nsub;
+    if (s->fout[f]) {
+      g = s->fsub_m[f];
+    } else {
+      for (int side = 0; side < 2; ++side) {
+        const int xi = side ? s->fsub_p[f] : s->fsub_m[f];
+        int np = 0;
+        for (int d = 0; d < D; ++d) np += (xi >> d) & 1;
+        if (np % D == s->fnd[f] && gcount[xi] < 4) {
+          g = xi;
+          break;
+        }
+      }
+    }
+    if (gcount[g] >= 4) g = nsub; /* cannot happen for dim 1-3; keeps the bookkeeping safe */
+    gmem[g][gcount[g]++] = f;
+  }
+  s->ng = 0;
+  for (int g = 0; g <= nsub; ++g) {
+    if (!gcount[g]) continue;
+    const int G = s->ng++;
+    ej_real cen[3] = {0, 0, 0}, rad = 0.0;
+    for (int l = 0; l < gcount[g]; ++l)
+      for (int d = 0; d < 3; ++d) cen[d] += s->q[gmem[g][l]][d] / gcount[g];
+    for (int l = 0; l < gcount[g]; ++l) {
+      ej_real r2 = 0.0;
+      for (int d = 0; d < 3; ++d) r2 += (s->q[gmem[g][l]][d] - cen[d]) * (s->q[gmem[g][l]][d] - cen[d]);
+      rad = sqrt(r2) > rad ? sqrt(r2) : rad;
+    }
+    for (int d = 0; d < 3; ++d) s->gc[G][d] = cen[d];
+    s->gr[G] = rad * (1.0 + 1e-9) + 1e-9; /* conservative against round-off in the ball test */
+    for (int l = 0; l < 4; ++l) {
+      const int pp = 4 * G + l, f = l < gcount[g] ? gmem[g][l] : -1;
+      s->gperm[pp] = f;
+      if (f >= 0) s->gpos[f] = pp;
+      for (int d = 0; d < 3; ++d) s->gq[d][pp] = f >= 0 ? s->q[f][d] : (d == 0 ? 1e3 : 0.0);
+    }
+  }
+  for (int sc = 0; sc < 8; ++sc)
+    for (int pp = 0; pp < RK_NF_MAX; ++pp) {
+      const int f = pp < 4 * s->ng ? s->gperm[pp] : -1;
+      s->gmap[sc][pp] = -1;
+      if (f < 0) continue;
+      int qs[3];
+      for (int d = 0; d < 3; ++d) qs[d] = ((sc >> d) & 1 ? -1 : 1) * (int)lrint(s->q[f][d]);
+      const int g = s->flut[rk_qcode(qs)];
+      s->gmap[sc][pp] = g >= 0 ? s->gpos[g] : -1;
+    }
 }
 
 /* ------------------------------------------------------------------ kernel */
@@ -413,8 +478,8 @@ static ej_err rk_setup(void *state, ej_set *set)
     ej_free(s->fflag);
     s->nid = n;
     s->fflag = ej_calloc((size_t)(n > 0 ? n : 1), sizeof(int32_t));
-    s->fb = ej_calloc((size_t)(n > 0 ? n : 1) * (size_t)s->nf * 4, sizeof(ej_real));
-    s->ft = ej_calloc((size_t)(n > 0 ? n : 1) * (size_t)s->nf * 3, sizeof(ej_real));
+    s->fb = ej_calloc((size_t)(n > 0 ? n : 1) * RK_NF_MAX * 4, sizeof(ej_real));
+    s->ft = ej_calloc((size_t)(n > 0 ? n : 1) * RK_NF_MAX * 3, sizeof(ej_real));
     EJ_ENSURE(s->fb && s->ft && s->fflag, EJ_ERR_MEM, "set '%s': rkpm msnni face data: out of memory", s->set_name);
     ej_real *sig = ej_set_field(set, "rk_sig");
     EJ_ENSURE(sig, EJ_ERR_INTERNAL, "set '%s': rkpm field rk_sig missing", s->set_name);
@@ -539,55 +604,105 @@ static inline RK_ALWAYS_INLINE void rk_box_moment_rows(const int dim, const rk_s
                                                       const int32_t *restrict id, const ej_off *off,
                                                       const ej_idx *nidx, ej_real tol, ej_range rg)
 {
-  const int nf = s->nf, n = dim + 1;
+  const int n = dim + 1;
   /* Face points outside the cloud (edges, corners) can be covered by few nodes: a stricter
    * pivot test there sends ill-conditioned ones to the Taylor form. With the node limit 1e-6
    * (or 1e-3) the extrapolated shape functions at such points are large and a jittered (0.2 h)
    * 3D block blows up at cfl 0.25-0.4; with 3e-2 it is stable at cfl 0.5 (test_rkpm). */
   const ej_real ftol = tol > RK_FACE_RCOND ? tol : RK_FACE_RCOND;
-  const ej_real *restrict q0 = s->qd[0], *restrict q1 = s->qd[1], *restrict q2 = s->qd[2];
+  const ej_real *restrict q0 = s->gq[0], *restrict q1 = s->gq[1], *restrict q2 = s->gq[2];
+  const int ng = s->ng;
   for (ej_idx L = rg.begin; L < rg.end; ++L) {
-    const ej_real h = hb[L], hq = 0.25 * h, reach = RK_QMAX * h;
+    const ej_real h = hb[L], hq = 0.25 * h;
     const ej_real inv_l = 1.0 / ra[L];
+    ej_real gcx[RK_NF_MAX / 4][3], grx[RK_NF_MAX / 4];
+    for (int g = 0; g < ng; ++g) {
+      for (int d = 0; d < 3; ++d) gcx[g][d] = hq * s->gc[g][d];
+      grx[g] = hq * s->gr[g];
+    }
+    /* Accumulators by padded position p (face groups, rk_faces_init). */
     ej_real A0[RK_NF_MAX] = {0}, A1[RK_NF_MAX] = {0}, A2[RK_NF_MAX] = {0}, A3[RK_NF_MAX] = {0};
     ej_real A11[RK_NF_MAX] = {0}, A22[RK_NF_MAX] = {0}, A33[RK_NF_MAX] = {0};
     ej_real A12[RK_NF_MAX] = {0}, A13[RK_NF_MAX] = {0}, A23[RK_NF_MAX] = {0};
-    for (ej_off k = off[L] - 1; k < off[L + 1]; ++k) {
-      const ej_idx j = k < off[L] ? L : nidx[k];
-      ej_real c0 = X[3 * L] - X[3 * j], c1 = 0.0, c2 = 0.0;
-      if (dim > 1) c1 = X[3 * L + 1] - X[3 * j + 1];
-      if (dim > 2) c2 = X[3 * L + 2] - X[3 * j + 2];
-      const ej_real aj = ra[j], r2c = c0 * c0 + c1 * c1 + c2 * c2;
-      if (r2c >= (aj + reach) * (aj + reach)) continue;
-      const ej_real inv_aj = 1.0 / aj;
-      for (int f = 0; f < nf; ++f) {
-        const ej_real d0 = c0 + hq * q0[f], d1 = dim > 1 ? c1 + hq * q1[f] : 0.0, d2 = dim > 2 ? c2 + hq * q2[f] : 0.0;
-        const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
-        const ej_real h1 = d0 * inv_l, h2 = d1 * inv_l, h3 = d2 * inv_l;
-        A0[f] += w, A1[f] += w * h1, A11[f] += w * h1 * h1;
-        if (dim > 1) A2[f] += w * h2, A22[f] += w * h2 * h2, A12[f] += w * h1 * h2;
-        if (dim > 2) A3[f] += w * h3, A33[f] += w * h3 * h3, A13[f] += w * h1 * h3, A23[f] += w * h2 * h3;
+    /* Neighbours in chunks: first the (neighbour, group) pairs whose ball test passes are
+     * listed without branches (the support of J misses the others: exact zeros), then the
+     * listed groups are evaluated, 4 lanes each, in neighbour order. */
+    for (ej_off k = off[L] - 1; k < off[L + 1];) {
+      ej_real cc[RK_CHUNK][3], ia[RK_CHUNK];
+      int item[RK_CHUNK * (RK_NF_MAX / 4)], nit = 0, nn = 0;
+      for (; k < off[L + 1] && nn < RK_CHUNK; ++k, ++nn) {
+        const ej_idx j = k < off[L] ? L : nidx[k];
+        ej_real c0 = X[3 * L] - X[3 * j], c1 = 0.0, c2 = 0.0;
+        if (dim > 1) c1 = X[3 * L + 1] - X[3 * j + 1];
+        if (dim > 2) c2 = X[3 * L + 2] - X[3 * j + 2];
+        const ej_real aj = ra[j];
+        cc[nn][0] = c0, cc[nn][1] = c1, cc[nn][2] = c2, ia[nn] = 1.0 / aj;
+        for (int g = 0; g < ng; ++g) {
+          const ej_real e0 = c0 + gcx[g][0], e1 = c1 + gcx[g][1], e2 = c2 + gcx[g][2], rr = aj + grx[g];
+          item[nit] = 16 * nn + g;
+          nit += e0 * e0 + e1 * e1 + e2 * e2 < rr * rr;
+        }
+      }
+      for (int t = 0; t < nit; ++t) {
+        const int jn = item[t] >> 4, g = item[t] & 15;
+        const ej_real c0 = cc[jn][0], c1 = cc[jn][1], c2 = cc[jn][2], inv_aj = ia[jn];
+        for (int p = 4 * g; p < 4 * g + 4; ++p) {
+          const ej_real d0 = c0 + hq * q0[p], d1 = dim > 1 ? c1 + hq * q1[p] : 0.0, d2 = dim > 2 ? c2 + hq * q2[p] : 0.0;
+          const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
+          const ej_real h1 = d0 * inv_l, h2 = d1 * inv_l, h3 = d2 * inv_l;
+          A0[p] += w, A1[p] += w * h1, A11[p] += w * h1 * h1;
+          if (dim > 1) A2[p] += w * h2, A22[p] += w * h2 * h2, A12[p] += w * h1 * h2;
+          if (dim > 2) A3[p] += w * h3, A33[p] += w * h3 * h3, A13[p] += w * h1 * h3, A23[p] += w * h2 * h3;
+        }
       }
     }
-    ej_real *b = s->fb + (size_t)id[L] * (size_t)nf * 4;
+    /* First row of M^-1 at every face point: the Cholesky of rk_row0_spd (same arithmetic),
+     * written branch-free over the padded positions so that it vectorises; a point with a
+     * pivot below ftol (or not covered) is flagged. */
+    ej_real *b = s->fb + (size_t)id[L] * RK_NF_MAX * 4;
     int nflag = 0;
-    for (int f = 0; f < nf; ++f) {
-      const ej_real M[4][4] = {{A0[f], A1[f], A2[f], A3[f]},
-                               {A1[f], A11[f], A12[f], A13[f]},
-                               {A2[f], A12[f], A22[f], A23[f]},
-                               {A3[f], A13[f], A23[f], A33[f]}};
-      ej_real Ai[4][4] = {{0}};
-      if (A0[f] > 0.0 && rk_inv_spd(n, M, Ai, ftol)) {
-        for (int c = 0; c < 4; ++c) b[c * nf + f] = Ai[0][c];
-      } else {
-        /* Too few nodes cover this face point (outside a free surface, a corner): flag it
-         * (b0 = -1; M^-1 is positive definite so b0 > 0 otherwise) and use the node's first
-         * order Taylor expansion there, Psi_J(x_f) = Psi_J(x_L) + grad Psi_J(x_L).(x_f - x_L):
-         * still a partition of unity that reproduces linear fields. */
-        b[f] = -1.0;
-        b[nf + f] = b[2 * nf + f] = b[3 * nf + f] = 0.0;
-        ++nflag;
+    for (int p = 0; p < 4 * ng; ++p) {
+      const ej_real M[4][4] = {{A0[p], A1[p], A2[p], A3[p]},
+                               {A1[p], A11[p], A12[p], A13[p]},
+                               {A2[p], A12[p], A22[p], A23[p]},
+                               {A3[p], A13[p], A23[p], A33[p]}};
+      ej_real Lc[4][4] = {{0}}, Li[4][4] = {{0}}, r0[4];
+      int ok = A0[p] > 0.0;
+      for (int jj = 0; jj < n; ++jj) {
+        ej_real sj = M[jj][jj];
+        for (int kk = 0; kk < jj; ++kk) sj -= Lc[jj][kk] * Lc[jj][kk];
+        ok &= (sj > ftol * M[jj][jj]) & (sj > 0.0);
+        Lc[jj][jj] = sqrt(sj);
+        const ej_real inv = 1.0 / Lc[jj][jj];
+        for (int ii = jj + 1; ii < n; ++ii) {
+          ej_real t = M[ii][jj];
+          for (int kk = 0; kk < jj; ++kk) t -= Lc[ii][kk] * Lc[jj][kk];
+          Lc[ii][jj] = t * inv;
+        }
       }
+      for (int jj = 0; jj < n; ++jj) {
+        Li[jj][jj] = 1.0 / Lc[jj][jj];
+        for (int ii = jj + 1; ii < n; ++ii) {
+          ej_real t = 0.0;
+          for (int kk = jj; kk < ii; ++kk) t += Lc[ii][kk] * Li[kk][jj];
+          Li[ii][jj] = -t / Lc[ii][ii];
+        }
+      }
+      for (int ii = 0; ii < 4; ++ii) {
+        ej_real t = 0.0;
+        for (int kk = ii; kk < n; ++kk) t += Li[kk][ii] * Li[kk][0];
+        r0[ii] = ii < n ? t : 0.0;
+      }
+      /* Too few nodes cover a flagged face point (outside a free surface, a corner): b0 = -1
+       * (M^-1 is positive definite so b0 > 0 otherwise) and the node's first order Taylor
+       * expansion is used there, Psi_J(x_f) = Psi_J(x_L) + grad Psi_J(x_L).(x_f - x_L): still
+       * a partition of unity that reproduces linear fields. Padding lanes: zeros. */
+      const int valid = s->gperm[p] >= 0;
+      nflag += valid & !ok;
+      b[p] = ok ? r0[0] : valid ? -1.0 : 0.0;
+      b[RK_NF_MAX + p] = ok ? r0[1] : 0.0;
+      b[2 * RK_NF_MAX + p] = ok ? r0[2] : 0.0;
+      b[3 * RK_NF_MAX + p] = ok ? r0[3] : 0.0;
     }
     s->fflag[id[L]] = nflag;
   }
@@ -721,53 +836,84 @@ static inline RK_ALWAYS_INLINE void rk_box_grad_rows(const int dim, const bool l
 {
   const ej_real *restrict X = A->X, *restrict ra = A->ra, *restrict v = A->v, *restrict vm = A->vm;
   const ej_real *restrict x = A->x;
-  const int nf = s->nf, ns = s->ns;
-  const ej_real *restrict q0 = s->qd[0], *restrict q1 = s->qd[1], *restrict q2 = s->qd[2];
+  const int nf = s->nf, ns = s->ns, ng = s->ng;
+  const ej_real *restrict q0 = s->gq[0], *restrict q1 = s->gq[1], *restrict q2 = s->gq[2];
   for (ej_idx L = rg.begin; L < rg.end; ++L) {
     const ej_idx kb = L - rg.begin;
-    const ej_real h = hb[L], hq = 0.25 * h, reach = RK_QMAX * h;
+    const ej_real h = hb[L], hq = 0.25 * h;
     const ej_real inv_l = 1.0 / ra[L];
-    const ej_real *row = s->fb + (size_t)id[L] * (size_t)nf * 4;
+    const ej_real *row = s->fb + (size_t)id[L] * RK_NF_MAX * 4;
     const bool taylor = s->fflag[id[L]] > 0;
-    /* Local copies: b scaled by 1/l; a flagged face has b = 0 and fl = 1 (Taylor form). */
+    /* Local copies by padded position p: b scaled by 1/l; a flagged face has b = 0 and fl = 1
+     * (Taylor form); padding lanes have b = 0, fl = 0. A group with a flagged face is never
+     * skipped (its Taylor term does not vanish outside the kernel support). */
     ej_real b0[RK_NF_MAX], b1[RK_NF_MAX], b2[RK_NF_MAX], b3[RK_NF_MAX], fl[RK_NF_MAX];
-    for (int f = 0; f < nf; ++f) {
-      const bool flg = row[f] < 0.0;
-      fl[f] = flg ? 1.0 : 0.0;
-      b0[f] = flg ? 0.0 : row[f];
-      b1[f] = row[nf + f] * inv_l, b2[f] = row[2 * nf + f] * inv_l, b3[f] = row[3 * nf + f] * inv_l;
+    ej_real gcx[RK_NF_MAX / 4][3], grx[RK_NF_MAX / 4];
+    int gfl[RK_NF_MAX / 4];
+    for (int g = 0; g < ng; ++g) {
+      for (int d = 0; d < 3; ++d) gcx[g][d] = hq * s->gc[g][d];
+      grx[g] = hq * s->gr[g];
+      gfl[g] = 0;
+    }
+    for (int p = 0; p < 4 * ng; ++p) { /* padding lanes: row entries 0 */
+      const bool flg = row[p] < 0.0;
+      fl[p] = flg ? 1.0 : 0.0;
+      gfl[p / 4] |= flg;
+      b0[p] = flg ? 0.0 : row[p];
+      b1[p] = row[RK_NF_MAX + p] * inv_l, b2[p] = row[2 * RK_NF_MAX + p] * inv_l, b3[p] = row[3 * RK_NF_MAX + p] * inv_l;
     }
     ej_real up[3][RK_NF_MAX] = {{0}}, um[3][RK_NF_MAX] = {{0}}, ux[3][RK_NF_MAX] = {{0}};
-    for (ej_off k = A->off[L]; k < A->off[L + 1]; ++k) { /* the self term has v_J - v_L = 0 */
-      const ej_idx j = A->idx[k];
-      ej_real c0 = X[3 * L] - X[3 * j], c1 = 0.0, c2 = 0.0;
-      if (dim > 1) c1 = X[3 * L + 1] - X[3 * j + 1];
-      if (dim > 2) c2 = X[3 * L + 2] - X[3 * j + 2];
-      const ej_real aj = ra[j], r2c = c0 * c0 + c1 * c1 + c2 * c2;
-      if (r2c >= (aj + reach) * (aj + reach)) continue;
-      const ej_real inv_aj = 1.0 / aj;
-      ej_real dv[3], dm[3], dx[3];
-      for (int c = 0; c < 3; ++c) {
-        dv[c] = v[3 * j + c] - v[3 * L + c];
-        dm[c] = vm[3 * j + c] - vm[3 * L + c];
-        dx[c] = lag ? x[3 * j + c] - x[3 * L + c] : 0.0;
-      }
-      ej_real wn = 0.0, ln = 0.0, gn[3] = {0, 0, 0};
-      if (taylor && r2c < aj * aj) {
-        const ej_real hv[3] = {c0 * inv_l, c1 * inv_l, c2 * inv_l};
-        wn = rk_phi(sqrt(r2c) * inv_aj);
-        rk_taylor_parts(dim, A->m0[L], A->m1 + 3 * L, A->m2 + 6 * L, hv, inv_l, &ln, gn);
-        ln *= wn, gn[0] *= wn * hq, gn[1] *= wn * hq, gn[2] *= wn * hq;
-      }
-      for (int f = 0; f < nf; ++f) {
-        const ej_real d0 = c0 + hq * q0[f], d1 = dim > 1 ? c1 + hq * q1[f] : 0.0, d2 = dim > 2 ? c2 + hq * q2[f] : 0.0;
-        const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
-        ej_real psi = (b0[f] + b1[f] * d0 + (dim > 1 ? b2[f] * d1 : 0.0) + (dim > 2 ? b3[f] * d2 : 0.0)) * w;
-        if (taylor) psi += fl[f] * (ln - gn[0] * q0[f] - gn[1] * q1[f] - gn[2] * q2[f]);
+    /* Chunks of neighbours (the self term has v_J - v_L = 0): list the (neighbour, group)
+     * pairs whose ball test passes (or whose group holds a flagged face of a Taylor node),
+     * without branches, then evaluate them in neighbour order (as rk_box_moment_rows). */
+    for (ej_off k = A->off[L]; k < A->off[L + 1];) {
+      ej_real cc[RK_CHUNK][3], ia[RK_CHUNK], dv[RK_CHUNK][3], dm[RK_CHUNK][3], dx[RK_CHUNK][3];
+      ej_real lnn[RK_CHUNK], gnn[RK_CHUNK][3];
+      int item[RK_CHUNK * (RK_NF_MAX / 4)], nit = 0, nn = 0;
+      for (; k < A->off[L + 1] && nn < RK_CHUNK; ++k, ++nn) {
+        const ej_idx j = A->idx[k];
+        ej_real c0 = X[3 * L] - X[3 * j], c1 = 0.0, c2 = 0.0;
+        if (dim > 1) c1 = X[3 * L + 1] - X[3 * j + 1];
+        if (dim > 2) c2 = X[3 * L + 2] - X[3 * j + 2];
+        const ej_real aj = ra[j], inv_aj = 1.0 / aj;
+        cc[nn][0] = c0, cc[nn][1] = c1, cc[nn][2] = c2, ia[nn] = inv_aj;
         for (int c = 0; c < 3; ++c) {
-          up[c][f] += psi * dv[c];
-          um[c][f] += psi * dm[c];
-          if (lag) ux[c][f] += psi * dx[c];
+          dv[nn][c] = v[3 * j + c] - v[3 * L + c];
+          dm[nn][c] = vm[3 * j + c] - vm[3 * L + c];
+          dx[nn][c] = lag ? x[3 * j + c] - x[3 * L + c] : 0.0;
+        }
+        lnn[nn] = gnn[nn][0] = gnn[nn][1] = gnn[nn][2] = 0.0;
+        if (taylor) {
+          const ej_real r2c = c0 * c0 + c1 * c1 + c2 * c2;
+          if (r2c < aj * aj) {
+            const ej_real hv[3] = {c0 * inv_l, c1 * inv_l, c2 * inv_l};
+            const ej_real wn = rk_phi(sqrt(r2c) * inv_aj);
+            ej_real ln = 0.0, gn[3] = {0, 0, 0};
+            rk_taylor_parts(dim, A->m0[L], A->m1 + 3 * L, A->m2 + 6 * L, hv, inv_l, &ln, gn);
+            lnn[nn] = ln * wn, gnn[nn][0] = gn[0] * wn * hq, gnn[nn][1] = gn[1] * wn * hq, gnn[nn][2] = gn[2] * wn * hq;
+          }
+        }
+        for (int g = 0; g < ng; ++g) {
+          const ej_real e0 = c0 + gcx[g][0], e1 = c1 + gcx[g][1], e2 = c2 + gcx[g][2], rr = aj + grx[g];
+          item[nit] = 16 * nn + g;
+          nit += (taylor & gfl[g]) | (e0 * e0 + e1 * e1 + e2 * e2 < rr * rr);
+        }
+      }
+      for (int t = 0; t < nit; ++t) {
+        const int jn = item[t] >> 4, g = item[t] & 15;
+        const ej_real c0 = cc[jn][0], c1 = cc[jn][1], c2 = cc[jn][2], inv_aj = ia[jn];
+        const ej_real ln = lnn[jn], gn0 = gnn[jn][0], gn1 = gnn[jn][1], gn2 = gnn[jn][2];
+        const ej_real dv0 = dv[jn][0], dv1 = dv[jn][1], dv2 = dv[jn][2];
+        const ej_real dm0 = dm[jn][0], dm1 = dm[jn][1], dm2 = dm[jn][2];
+        const ej_real dx0 = dx[jn][0], dx1 = dx[jn][1], dx2 = dx[jn][2];
+        for (int f = 4 * g; f < 4 * g + 4; ++f) { /* f: padded position */
+          const ej_real d0 = c0 + hq * q0[f], d1 = dim > 1 ? c1 + hq * q1[f] : 0.0, d2 = dim > 2 ? c2 + hq * q2[f] : 0.0;
+          const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
+          ej_real psi = (b0[f] + b1[f] * d0 + (dim > 1 ? b2[f] * d1 : 0.0) + (dim > 2 ? b3[f] * d2 : 0.0)) * w;
+          if (taylor) psi += fl[f] * (ln - gn0 * q0[f] - gn1 * q1[f] - gn2 * q2[f]);
+          up[0][f] += psi * dv0, up[1][f] += psi * dv1, up[2][f] += psi * dv2;
+          um[0][f] += psi * dm0, um[1][f] += psi * dm1, um[2][f] += psi * dm2;
+          if (lag) ux[0][f] += psi * dx0, ux[1][f] += psi * dx1, ux[2][f] += psi * dx2;
         }
       }
     }
@@ -778,24 +924,24 @@ static inline RK_ALWAYS_INLINE void rk_box_grad_rows(const int dim, const bool l
     for (int q = 0; q < 9; ++q) gp[q] = gm[q] = fx[q] = 0.0;
     const ej_real cb = 1.0 / ((ej_real)(1 << (dim - 1)) * h), cs = 2.0 / h; /* A_f/V_L, A_f/V_xi */
     for (int f = 0; f < nf; ++f) {
-      const int nd = s->fnd[f];
+      const int nd = s->fnd[f], p = s->gpos[f];
       if (s->fout[f]) {
         const ej_real sg = s->fsgn[f];
         const int xi = s->fsub_m[f];
         for (int c = 0; c < 3; ++c) {
-          gp[3 * c + nd] += cb * sg * up[c][f];
-          gm[3 * c + nd] += cb * sg * um[c][f];
-          if (lag) fx[3 * c + nd] += cb * sg * ux[c][f];
-          gpx[xi][3 * c + nd] += cs * sg * up[c][f];
-          gmx[xi][3 * c + nd] += cs * sg * um[c][f];
+          gp[3 * c + nd] += cb * sg * up[c][p];
+          gm[3 * c + nd] += cb * sg * um[c][p];
+          if (lag) fx[3 * c + nd] += cb * sg * ux[c][p];
+          gpx[xi][3 * c + nd] += cs * sg * up[c][p];
+          gmx[xi][3 * c + nd] += cs * sg * um[c][p];
         }
       } else {
         const int xm = s->fsub_m[f], xp = s->fsub_p[f];
         for (int c = 0; c < 3; ++c) {
-          gpx[xm][3 * c + nd] += cs * up[c][f];
-          gmx[xm][3 * c + nd] += cs * um[c][f];
-          gpx[xp][3 * c + nd] -= cs * up[c][f];
-          gmx[xp][3 * c + nd] -= cs * um[c][f];
+          gpx[xm][3 * c + nd] += cs * up[c][p];
+          gmx[xm][3 * c + nd] += cs * um[c][p];
+          gpx[xp][3 * c + nd] -= cs * up[c][p];
+          gmx[xp][3 * c + nd] -= cs * um[c][p];
         }
       }
     }
@@ -864,9 +1010,9 @@ static inline void rk_box_close(const rk_state *s, ej_idx i, ej_idx kb, const ej
   ej_real S[9];
   if (Pl) ej_m3_copy(S, Pl);
   else ej_s6_to_m3(S, t6);
-  ej_real *T = s->ft + (size_t)id * (size_t)nf * 3;
+  ej_real *T = s->ft + (size_t)id * RK_NF_MAX * 3;
   if (dead) { /* fallback or failed: no stress divergence from this node */
-    for (int q = 0; q < 3 * nf; ++q) T[q] = 0.0;
+    for (int q = 0; q < 3 * RK_NF_MAX; ++q) T[q] = 0.0;
     return;
   }
   ej_real pw = 0.0;
@@ -920,7 +1066,7 @@ static inline void rk_box_close(const rk_state *s, ej_idx i, ej_idx kb, const ej
         for (int c = 0; c < 3; ++c) tf[c] = Af * col[c];
       }
     }
-    for (int c = 0; c < 3; ++c) T[c * nf + f] = tf[c];
+    for (int c = 0; c < 3; ++c) T[c * RK_NF_MAX + s->gpos[f]] = tf[c]; /* padded position */
   }
 }
 
@@ -1190,72 +1336,99 @@ static inline RK_ALWAYS_INLINE ej_err rk_box_force_rows(const int dim, const rk_
                                                       ej_idx n_owned, ej_range rg)
 {
   const ej_real *restrict X = A->X, *restrict ra = A->ra, *restrict m = A->m;
-  const int nf = s->nf;
-  const ej_real *restrict q0 = s->qd[0], *restrict q1 = s->qd[1], *restrict q2 = s->qd[2];
+  const int ng = s->ng;
+  const ej_real *restrict q0 = s->gq[0], *restrict q1 = s->gq[1], *restrict q2 = s->gq[2];
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
     const ej_real ai = ra[i], ai2 = ai * ai, inv_ai = 1.0 / ai;
     ej_real fo[3] = {0, 0, 0};
-    for (ej_off k = A->off[i] - 1; k < A->off[i + 1]; ++k) {
-      const ej_idx L = k < A->off[i] ? i : A->idx[k];
-      const ej_real h = hb[L], hq = 0.25 * h, reach = RK_QMAX * h;
-      ej_real c0 = X[3 * L] - X[3 * i], c1 = 0.0, c2 = 0.0; /* x_L - x_I */
-      if (dim > 1) c1 = X[3 * L + 1] - X[3 * i + 1];
-      if (dim > 2) c2 = X[3 * L + 2] - X[3 * i + 2];
-      const ej_real r2c = c0 * c0 + c1 * c1 + c2 * c2;
-      if (r2c >= (ai + reach) * (ai + reach)) continue;
-      const ej_real inv_l = 1.0 / ra[L];
-      const ej_real *b = s->fb + (size_t)id[L] * (size_t)nf * 4, *T = s->ft + (size_t)id[L] * (size_t)nf * 3;
-      const bool taylor = s->fflag[id[L]] > 0;
-      ej_real wn = 0.0, ln = 0.0, gn[3] = {0, 0, 0};
-      if (taylor && r2c < ai2) { /* Taylor pieces (flagged face points), in L's own frame */
-        const ej_real hv[3] = {c0 * inv_l, c1 * inv_l, c2 * inv_l};
-        wn = rk_phi(sqrt(r2c) * inv_ai);
-        rk_taylor_parts(dim, A->m0[L], A->m1 + 3 * L, A->m2 + 6 * L, hv, inv_l, &ln, gn);
-        ln *= wn, gn[0] *= wn * hq, gn[1] *= wn * hq, gn[2] *= wn * hq;
+    /* Traction sum in 4 lane-wise partial sums, in (L, group) order: thread-count independent. */
+    ej_real s0[4] = {0, 0, 0, 0}, s1[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0};
+    for (ej_off k = A->off[i] - 1; k < A->off[i + 1];) {
+      /* Chunk of nodes L: their face data (own row, or for a ghost image the source's row
+       * mapped: mirror face q of the image is the source's s.q, b and T flip their mirrored
+       * components; periodic: identity), the Taylor pieces, and the list of (L, group) pairs
+       * whose ball meets I's support (or that hold a flagged face of L), without branches. */
+      const ej_real *Bp[RK_CHUNK2], *Tp[RK_CHUNK2];
+      ej_real cc[RK_CHUNK2][3], hqs[RK_CHUNK2], il[RK_CHUNK2], lnn[RK_CHUNK2], gnn[RK_CHUNK2][3];
+      ej_real gbt[RK_CHUNK2][7 * RK_NF_MAX];
+      int item[RK_CHUNK2 * (RK_NF_MAX / 4)], tay[RK_CHUNK2], nit = 0, nn = 0;
+      for (; k < A->off[i + 1] && nn < RK_CHUNK2; ++k, ++nn) {
+        const ej_idx L = k < A->off[i] ? i : A->idx[k];
+        const ej_real h = hb[L], hq = 0.25 * h;
+        ej_real c0 = X[3 * L] - X[3 * i], c1 = 0.0, c2 = 0.0; /* x_L - x_I */
+        if (dim > 1) c1 = X[3 * L + 1] - X[3 * i + 1];
+        if (dim > 2) c2 = X[3 * L + 2] - X[3 * i + 2];
+        const ej_real r2c = c0 * c0 + c1 * c1 + c2 * c2, inv_l = 1.0 / ra[L];
+        const ej_real *b = s->fb + (size_t)id[L] * RK_NF_MAX * 4, *T = s->ft + (size_t)id[L] * RK_NF_MAX * 3;
+        const bool taylor = s->fflag[id[L]] > 0;
+        cc[nn][0] = c0, cc[nn][1] = c1, cc[nn][2] = c2, hqs[nn] = hq, il[nn] = inv_l, tay[nn] = taylor;
+        lnn[nn] = gnn[nn][0] = gnn[nn][1] = gnn[nn][2] = 0.0;
+        if (taylor && r2c < ai2) { /* Taylor pieces (flagged face points), in L's own frame */
+          const ej_real hv[3] = {c0 * inv_l, c1 * inv_l, c2 * inv_l};
+          const ej_real wn = rk_phi(sqrt(r2c) * inv_ai);
+          ej_real ln = 0.0, gn[3] = {0, 0, 0};
+          rk_taylor_parts(dim, A->m0[L], A->m1 + 3 * L, A->m2 + 6 * L, hv, inv_l, &ln, gn);
+          lnn[nn] = ln * wn, gnn[nn][0] = gn[0] * wn * hq, gnn[nn][1] = gn[1] * wn * hq, gnn[nn][2] = gn[2] * wn * hq;
+        }
+        Bp[nn] = b, Tp[nn] = T;
+        if (L >= n_owned) {
+          ej_real sg[3];
+          int sc = 0;
+          for (int d = 0; d < 3; ++d) {
+            const ej_real t = sig[3 * L + d];
+            if (t != 1.0 && t != -1.0)
+              return rk_bad(s, set, i,
+                            "msnni: neighbour image of a symmetry plane that is not axis-aligned, signature", t);
+            sg[d] = t;
+            sc |= (t < 0.0) << d;
+          }
+          const int *mp = s->gmap[sc];
+          ej_real *gb = gbt[nn];
+          for (int p = 0; p < RK_NF_MAX; ++p) {
+            const int g = mp[p];
+            if (g < 0) {
+              for (int c = 0; c < 7; ++c) gb[c * RK_NF_MAX + p] = 0.0;
+              continue;
+            }
+            gb[p] = b[g];
+            for (int d = 0; d < 3; ++d) gb[(1 + d) * RK_NF_MAX + p] = sg[d] * b[(1 + d) * RK_NF_MAX + g];
+            for (int c = 0; c < 3; ++c) gb[(4 + c) * RK_NF_MAX + p] = sg[c] * T[c * RK_NF_MAX + g];
+          }
+          Bp[nn] = gb, Tp[nn] = gb + 4 * RK_NF_MAX;
+        }
+        for (int g = 0; g < ng; ++g) {
+          const ej_real e0 = c0 + hq * s->gc[g][0], e1 = c1 + hq * s->gc[g][1], e2 = c2 + hq * s->gc[g][2];
+          const ej_real rr = ai + hq * s->gr[g];
+          int a = e0 * e0 + e1 * e1 + e2 * e2 < rr * rr;
+          if (taylor)
+            for (int p = 4 * g; p < 4 * g + 4; ++p) a |= Bp[nn][p] < 0.0;
+          item[nit] = 16 * nn + g;
+          nit += a;
+        }
       }
-      if (L < n_owned) {
-        const ej_real *restrict B0 = b, *restrict B1 = b + nf, *restrict B2 = b + 2 * nf, *restrict B3 = b + 3 * nf;
-        const ej_real *restrict T0 = T, *restrict T1 = T + nf, *restrict T2 = T + 2 * nf;
-        ej_real f0 = 0.0, f1 = 0.0, f2 = 0.0;
-        for (int f = 0; f < nf; ++f) {
-          const ej_real d0 = c0 + hq * q0[f], d1 = dim > 1 ? c1 + hq * q1[f] : 0.0, d2 = dim > 2 ? c2 + hq * q2[f] : 0.0;
+      for (int t = 0; t < nit; ++t) {
+        const int jn = item[t] >> 4, g = item[t] & 15;
+        const ej_real *restrict B0 = Bp[jn], *restrict B1 = B0 + RK_NF_MAX, *restrict B2 = B0 + 2 * RK_NF_MAX,
+                      *restrict B3 = B0 + 3 * RK_NF_MAX;
+        const ej_real *restrict T0 = Tp[jn], *restrict T1 = T0 + RK_NF_MAX, *restrict T2 = T0 + 2 * RK_NF_MAX;
+        const ej_real c0 = cc[jn][0], c1 = cc[jn][1], c2 = cc[jn][2], hq = hqs[jn], inv_l = il[jn];
+        const ej_real ln = lnn[jn], gn0 = gnn[jn][0], gn1 = gnn[jn][1], gn2 = gnn[jn][2];
+        const bool taylor = tay[jn];
+        for (int l = 0; l < 4; ++l) {
+          const int p = 4 * g + l;
+          const ej_real d0 = c0 + hq * q0[p], d1 = dim > 1 ? c1 + hq * q1[p] : 0.0, d2 = dim > 2 ? c2 + hq * q2[p] : 0.0;
           const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_ai);
           const ej_real lin =
-              B0[f] + (B1[f] * d0 + (dim > 1 ? B2[f] * d1 : 0.0) + (dim > 2 ? B3[f] * d2 : 0.0)) * inv_l;
+              B0[p] + (B1[p] * d0 + (dim > 1 ? B2[p] * d1 : 0.0) + (dim > 2 ? B3[p] * d2 : 0.0)) * inv_l;
           ej_real psi = lin * w;
-          if (taylor) psi = B0[f] < 0.0 ? ln - gn[0] * q0[f] - gn[1] * q1[f] - gn[2] * q2[f] : psi;
-          f0 += psi * T0[f], f1 += psi * T1[f], f2 += psi * T2[f];
-        }
-        fo[0] -= f0, fo[1] -= f1, fo[2] -= f2;
-      } else {
-        int sg[3];
-        for (int d = 0; d < 3; ++d) {
-          const ej_real t = sig[3 * L + d];
-          if (t != 1.0 && t != -1.0)
-            return rk_bad(s, set, i, "msnni: neighbour image of a symmetry plane that is not axis-aligned, signature",
-                          t);
-          sg[d] = t > 0.0 ? 1 : -1;
-        }
-        for (int f = 0; f < nf; ++f) {
-          int qs[3];
-          for (int d = 0; d < 3; ++d) qs[d] = sg[d] * (int)lrint(s->q[f][d]);
-          const int g = s->flut[rk_qcode(qs)];
-          ej_real psi;
-          if (b[g] < 0.0) {
-            if (wn == 0.0) continue;
-            psi = ln - gn[0] * q0[f] - gn[1] * q1[f] - gn[2] * q2[f];
-          } else {
-            ej_real dl[3] = {c0 + hq * q0[f], dim > 1 ? c1 + hq * q1[f] : 0.0, dim > 2 ? c2 + hq * q2[f] : 0.0};
-            const ej_real r2 = dl[0] * dl[0] + dl[1] * dl[1] + dl[2] * dl[2];
-            if (r2 >= ai2) continue;
-            ej_real lin = b[g];
-            for (int d = 0; d < dim; ++d) lin += sg[d] * b[(1 + d) * nf + g] * dl[d] * inv_l;
-            psi = lin * rk_phi(sqrt(r2) * inv_ai);
-          }
-          for (int c = 0; c < 3; ++c) fo[c] -= psi * sg[c] * T[c * nf + g];
+          if (taylor) psi = B0[p] < 0.0 ? ln - gn0 * q0[p] - gn1 * q1[p] - gn2 * q2[p] : psi;
+          s0[l] += psi * T0[p], s1[l] += psi * T1[p], s2[l] += psi * T2[p];
         }
       }
     }
+    fo[0] -= (s0[0] + s0[1]) + (s0[2] + s0[3]);
+    fo[1] -= (s1[0] + s1[1]) + (s1[2] + s1[3]);
+    fo[2] -= (s2[0] + s2[1]) + (s2[2] + s2[3]);
     const ej_real inv_m = 1.0 / m[i];
     for (int c = 0; c < dim; ++c) A->a[3 * i + c] += fo[c] * inv_m;
   }
