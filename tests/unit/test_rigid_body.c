@@ -3,6 +3,7 @@
  * elastic RKPM block through kernel_contact conserves total momentum to round-off and closes
  * the energy budget. */
 #include <check.h>
+#include <stdarg.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,42 +11,35 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "validation_common.h"
 
 const ej_plugin_info *ej_plugin_rigid_body_info(void);
 const ej_plugin_info *ej_plugin_rkpm_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
 const ej_plugin_info *ej_plugin_kernel_contact_info(void);
 
+/* A scene run through the shared harness (validation_common.h: vscene). */
 typedef struct rb_run {
-  char dir[64], scene[128], out[128];
-  ej_registry *reg;
-  ej_scene *sc;
+  vscene v;
   ej_sim *sim;
 } rb_run;
 
+static ej_err rb_vopen(vscene *c, const ej_plugin_info *const *p, int np, const char *fmt, ...)
+{
+  va_list ap;
+  va_start(ap, fmt);
+  ej_err rc = vscene_open(c, "rb", p, np, fmt, ap);
+  va_end(ap);
+  return rc;
+}
+
 static void rb_open(rb_run *R, const char *text)
 {
-  memset(R, 0, sizeof *R);
-  strcpy(R->dir, "/tmp/ej_rb_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(R->dir));
-  snprintf(R->scene, sizeof R->scene, "%s/rb.yaml", R->dir);
-  snprintf(R->out, sizeof R->out, "%s/rb.h5", R->dir);
-  FILE *fp = fopen(R->scene, "w");
-  ck_assert_ptr_nonnull(fp);
-  fputs(text, fp);
-  fclose(fp);
-  ck_assert_int_eq(ej_registry_create(&R->reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(R->reg, ej_plugin_rigid_body_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(R->reg, ej_plugin_rkpm_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(R->reg, ej_plugin_elastic_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(R->reg, ej_plugin_kernel_contact_info()), EJ_OK);
-  ej_err rc = ej_scene_load(R->scene, R->reg, &R->sc);
+  const ej_plugin_info *p[] = {ej_plugin_rigid_body_info(), ej_plugin_rkpm_info(), ej_plugin_elastic_info(), ej_plugin_kernel_contact_info()};
+  ej_err rc = rb_vopen(&R->v, p, (int)(sizeof p / sizeof *p), "%s", text);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
-  ej_run_opts opts = {.struct_size = sizeof opts, .output = R->out, .threads = 1};
-  rc = ej_sim_create(R->sc, R->reg, &opts, &R->sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
+  R->sim = R->v.r.sim;
 }
 
 static void rb_go(rb_run *R)
@@ -57,15 +51,7 @@ static void rb_go(rb_run *R)
 
 static void rb_close(rb_run *R)
 {
-  ej_sim_destroy(R->sim);
-  ej_scene_destroy(R->sc);
-  ej_registry_destroy(R->reg);
-  unlink(R->scene);
-  unlink(R->out);
-  char side[160];
-  snprintf(side, sizeof side, "%s/rb.xdmf", R->dir);
-  unlink(side);
-  rmdir(R->dir);
+  vscene_free(&R->v);
 }
 
 static ej_set *rb_set(const rb_run *R, const char *name)
