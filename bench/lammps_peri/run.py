@@ -153,11 +153,16 @@ def ejecta_scene(model, workdir, steps, csv, fields="[v, damage]", every=1.0e-5)
     return path
 
 
-def run_ejecta(scene, workdir, threads, out="out.h5"):
+def run_ejecta(scene, workdir, threads, out="out.h5", policy="passive"):
     # passive waiting: a thread that waits at a barrier sleeps instead of spinning, so on a shared
     # machine the CPU time counts work (and synchronisation), not spinning while the other thread
-    # waits for a core
-    env = dict(os.environ, OMP_NUM_THREADS=str(threads), OMP_WAIT_POLICY="passive")
+    # waits for a core. policy=None: the OpenMP runtime's default (libgomp spins a while before it
+    # sleeps), what a user gets; a sleeping thread takes tens of microseconds to wake at every
+    # parallel region, so the idle-machine wall speed-up is measured with the default.
+    env = dict(os.environ, OMP_NUM_THREADS=str(threads))
+    env.pop("OMP_WAIT_POLICY", None)
+    if policy:
+        env["OMP_WAIT_POLICY"] = policy
     return timed([EJECTA, "run", scene, "-o", out, "--threads", str(threads)], workdir, env)
 
 
@@ -216,6 +221,9 @@ def main():
         bitwise_2t = bool(np.array_equal(de, de2) and np.array_equal(ser["kinetic"], ser2["kinetic"]))
         _, wall_s1, cpu_s1, _ = run_ejecta(scene1, we, 1, out="setup1.h5")
         _, wall_s2, cpu_s2, _ = run_ejecta(scene1, we, 2, out="setup2.h5")
+        _, wall_d2, _, _ = run_ejecta(scene, we, 2, out="out2d.h5", policy=None)
+        _, wall_sd2, _, _ = run_ejecta(scene1, we, 2, out="setup2d.h5", policy=None)
+        wloop_d2 = max(wall_d2 - wall_sd2, 1e-9)
         loop_e1 = max(cpu_e1 - cpu_s1, 1e-9)
         loop_e2 = max(cpu_e2 - cpu_s2, 1e-9)
         wloop_e1 = max(wall_e1 - wall_s1, 1e-9)
@@ -242,7 +250,8 @@ def main():
             loop_cpu_s=dict(lammps=L["loop_cpu"], ejecta_1t=loop_e1, ejecta_2t=loop_e2),
             loop_wall_s=dict(lammps=L["loop"], ejecta_1t=wloop_e1, ejecta_2t=wloop_e2),
             particle_steps_per_s=dict(lammps=ps_l, ejecta_1t=ps_e1, ratio_1t=ps_e1 / ps_l,
-                                      speedup_2t_cpu=2.0 * loop_e1 / loop_e2, speedup_2t_wall=wloop_e1 / wloop_e2),
+                                      speedup_2t_cpu=2.0 * loop_e1 / loop_e2, speedup_2t_wall=wloop_e1 / wloop_e2,
+                                      speedup_2t_wall_default_policy=wloop_e1 / wloop_d2),
             bitwise_1t_2t=bitwise_2t,
             peak_rss=dict(lammps=rss_l, ejecta=rss_e, ejecta_2t=rss_e2),
             energy_balance_end=float(ser["balance"][-1]), ke_end=float(ser["kinetic"][-1]),
@@ -320,7 +329,8 @@ def main():
         print(f"particle-steps/CPU-s    LAMMPS {p['lammps']:.4g}  ejecta 1t {p['ejecta_1t']:.4g}")
         print(f"  ejecta/LAMMPS (1 thread, CPU) {p['ratio_1t']:.2f}x  [{'PASS' if p['ratio_1t'] >= 5 else 'FAIL'} >= 5x]")
         print(f"  2-thread speed-up: CPU estimate {p['speedup_2t_cpu']:.2f}x"
-              f"  [{'PASS' if p['speedup_2t_cpu'] >= 1.8 else 'FAIL'} >= 1.8x], wall {p['speedup_2t_wall']:.2f}x (shared machine)")
+              f"  [{'PASS' if p['speedup_2t_cpu'] >= 1.8 else 'FAIL'} >= 1.8x], wall {p['speedup_2t_wall']:.2f}x passive, "
+              f"{p.get('speedup_2t_wall_default_policy', float('nan')):.2f}x default wait policy (meaningful on an idle machine only)")
         print(f"  1 vs 2 threads bitwise identical (damage, KE series): {r['bitwise_1t_2t']}")
         m = r["peak_rss"]
         print(f"peak RSS [MB]           LAMMPS {m['lammps'] / 2**20:.1f}  ejecta {m['ejecta'] / 2**20:.1f}")

@@ -201,6 +201,7 @@ typedef struct ej_scene_bc {
   ej_shape *region; /* FIX / VELOCITY: particles inside at t = 0; NULL = whole set */
   bool comp[3];     /* FIX: constrained components; VELOCITY: prescribed components */
   ej_real velocity[3];
+  ej_real until;    /* VELOCITY: prescribed while t <= until (INFINITY: for the whole run) */
   ej_real point[3], normal[3]; /* SYMMETRY plane (normal unit, pointing into the domain) */
   int axis;                    /* PERIODIC: 0, 1, 2 */
   ej_real lo, hi;              /* PERIODIC: period [lo, hi) */
@@ -472,6 +473,10 @@ struct ej_sim {
   ej_idx chunk;
   ej_real *chunk_scratch; /* per-chunk partial sums */
   int64_t chunk_scratch_cap;
+  /* EJECTA_PROFILE=1: wall time of the step loop and of its parallel regions */
+  bool profile;
+  double prof_loop, prof_par, prof_out;
+  int64_t prof_regions;
 };
 
 /* Runs a method's declare op against a set (describe, tests). */

@@ -577,7 +577,7 @@ static ej_err ej_parse_bc(ej_loader *L, int index, ej_scene_bc *bc, const ej_nod
     return ej_error_input(&n->loc, "a boundary condition needs one of fix, velocity, symmetry, periodic");
   }
   static const char *const keys_fix[] = {"fix", "set", "region", NULL};
-  static const char *const keys_vel[] = {"velocity", "set", "region", "components", NULL};
+  static const char *const keys_vel[] = {"velocity", "set", "region", "components", "until", NULL};
   static const char *const keys_sym[] = {"symmetry", "set", NULL};
   static const char *const keys_per[] = {"periodic", "set", NULL};
   static const char *const *const keys[] = {keys_fix, keys_vel, keys_sym, keys_per};
@@ -596,6 +596,18 @@ static ej_err ej_parse_bc(ej_loader *L, int index, ej_scene_bc *bc, const ej_nod
   case 1: {
     bc->kind = EJ_BC_VELOCITY;
     EJ_TRY(ej_node_vector(v, dim, "m/s", bc->velocity));
+    /* until: the velocity is prescribed while t <= until, then the particles are free (an
+     * impactor that separates); by default for the whole run */
+    bc->until = INFINITY;
+    const ej_node *u = ej_node_get(n, "until");
+    if (u) {
+      if (u->type != EJ_NODE_SCALAR)
+        return ej_error_input(&u->loc, "until: expected a time (e.g. 50 us)");
+      double t_until;
+      EJ_TRY(ej_units_parse(u->text, "s", &u->loc, &t_until));
+      if (!(t_until >= 0)) return ej_error_input(&u->loc, "until = %g s: expected a time >= 0", t_until);
+      bc->until = t_until;
+    }
     const ej_node *c = ej_node_get(n, "components");
     if (c) {
       EJ_TRY(ej_parse_components(c, dim, "components", bc->comp));
@@ -1145,7 +1157,9 @@ static const char ej_schema_bc_head[] =
     "\"region\":{\"$ref\":\"#/$defs/shape\"},\"fix\":{\"$ref\":\"#/$defs/components\"}}},"
     "{\"additionalProperties\":false,\"required\":[\"velocity\"],\"properties\":{\"set\":{\"type\":\"string\"},"
     "\"region\":{\"$ref\":\"#/$defs/shape\"},\"velocity\":{\"$ref\":\"#/$defs/vector\"},"
-    "\"components\":{\"$ref\":\"#/$defs/components\"}}},"
+    "\"components\":{\"$ref\":\"#/$defs/components\"},\"until\":{\"$ref\":\"#/$defs/quantity\","
+    "\"description\":\"Time [s] up to which the velocity is prescribed; then the particles are free. "
+    "Default: the whole run.\"}}},"
     "{\"additionalProperties\":false,\"required\":[\"symmetry\"],\"properties\":{\"set\":{\"type\":\"string\"},"
     "\"symmetry\":{\"type\":\"object\",\"additionalProperties\":false,\"required\":[\"point\",\"normal\"],"
     "\"description\":\"Mirror plane; the normal points into the domain.\",\"properties\":{\"point\":"

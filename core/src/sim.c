@@ -16,7 +16,13 @@
 #include "core_impl.h"
 
 #define EJ_CHUNK 512
-#define EJ_NRED 8 /* reduction slots per chunk */
+#define EJ_NRED 8 /* energy reduction slots per chunk */
+/* per-chunk scratch: EJ_NRED energy sums, then the step's work, then the watchdog's result */
+#define EJ_S_WORK EJ_NRED
+#define EJ_S_BADP (EJ_NRED + 1)
+#define EJ_S_BADF (EJ_NRED + 2)
+#define EJ_NSLOT (EJ_NRED + 3)
+#define EJ_CHUNKS_MIN 16 /* a set below 16 x EJ_CHUNK particles is cut into 16 or more chunks */
 
 struct ej_decl {
   ej_set *set;
@@ -50,16 +56,40 @@ static double ej_wall(void)
   return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+/* CPU time of the calling thread: EJECTA_PROFILE's clock, so that a 1-thread profile on a loaded
+ * machine counts the work and not the time the thread waited for a core. */
+static double ej_thread_cpu(void)
+{
+  struct timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 /* ------------------------------------------------------------------ chunked parallel loops */
 
 typedef ej_err (*ej_chunk_fn)(ej_sim *sim, ej_set *s, void *ctx, int64_t chunk, ej_range r);
 
-static int64_t ej_chunk_count(const ej_set *s) { return ((int64_t)s->n + EJ_CHUNK - 1) / EJ_CHUNK; }
+/* Particles per chunk: EJ_CHUNK, or fewer (a multiple of 64, at least 64) so that a small set
+ * still has EJ_CHUNKS_MIN chunks: with 7 chunks of 512 (3487 particles) two threads could not
+ * get closer than 4:3 chunks (speed-up <= 1.79). It depends on n only, so the order of every
+ * reduction, hence every result, is the same for any thread count. */
+static int64_t ej_chunk_size(const ej_set *s)
+{
+  int64_t c = ((int64_t)s->n + EJ_CHUNKS_MIN - 1) / EJ_CHUNKS_MIN;
+  c = (c + 63) / 64 * 64;
+  return c < 64 ? 64 : c > EJ_CHUNK ? EJ_CHUNK : c;
+}
+
+static int64_t ej_chunk_count(const ej_set *s)
+{
+  const int64_t cs = ej_chunk_size(s);
+  return ((int64_t)s->n + cs - 1) / cs;
+}
 
 static ej_range ej_chunk_range(const ej_set *s, int64_t c)
 {
-  const int64_t end = (c + 1) * EJ_CHUNK;
-  return (ej_range){(ej_idx)(c * EJ_CHUNK), (ej_idx)(end < s->n ? end : s->n)};
+  const int64_t cs = ej_chunk_size(s), end = (c + 1) * cs;
+  return (ej_range){(ej_idx)(c * cs), (ej_idx)(end < s->n ? end : s->n)};
 }
 
 /* Runs fn over the owned particles of s in chunks; the first error (lowest chunk) wins. */
@@ -69,6 +99,7 @@ static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
   int64_t failed_chunk = INT64_MAX;
   ej_error_frame frames[EJ_ERROR_MAX_FRAMES];
   int nframes = 0;
+  const double t_prof = sim->profile ? ej_thread_cpu() : 0;
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t c = 0; c < nch; ++c) {
     int64_t seen;
@@ -88,6 +119,7 @@ static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
       ej_error_clear();
     }
   }
+  if (sim->profile) sim->prof_par += ej_thread_cpu() - t_prof, sim->prof_regions++;
   if (failed_chunk != INT64_MAX) {
     ej_error_import(frames, nframes);
     return ej_error_push(frames[0].code, __FILE__, __LINE__, __func__, NULL);
@@ -97,7 +129,7 @@ static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
 
 static ej_err ej_sim_scratch(ej_sim *sim, const ej_set *s)
 {
-  int64_t need = ej_chunk_count(s) * EJ_NRED + EJ_NRED;
+  int64_t need = ej_chunk_count(s) * EJ_NSLOT + EJ_NSLOT;
   if (need <= sim->chunk_scratch_cap) return EJ_OK;
   ej_real *p = ej_realloc(sim->chunk_scratch, (size_t)need * sizeof *p);
   EJ_ENSURE(p, EJ_ERR_MEM, "out of memory");
@@ -202,6 +234,14 @@ static ej_err ej_eos_invert(const ej_eos *eos, ej_real rho, ej_real p, const ej_
 /* ------------------------------------------------------------------ sets */
 
 static bool ej_bc_applies(const ej_scene_bc *bc, int set) { return bc->set < 0 || bc->set == set; }
+
+/* A fix is for ever; a prescribed velocity while t <= until (the time of the configuration whose
+ * accelerations are being constrained): after it the particles are free, released at the last
+ * step with t <= until. */
+static bool ej_bc_active(const ej_sim *sim, const ej_scene_bc *bc)
+{
+  return bc->kind != EJ_BC_VELOCITY || sim->t <= bc->until + 1e-12 * (sim->scene->t_end > 0 ? sim->scene->t_end : 1);
+}
 
 static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, const ej_points *pts)
 {
@@ -674,6 +714,7 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
     for (int b = 0; mask; ++b, mask >>= 1)
       if (mask & 1u) {
         const ej_scene_bc *bc = &sim->scene->bcs[b];
+        if (!ej_bc_active(sim, bc)) continue;
         for (int k = 0; k < 3; ++k)
           if (bc->comp[k]) {
             /* the constraint's force m (0 - a) moving at the prescribed velocity */
@@ -700,11 +741,14 @@ static int ej_set_passes(const ej_set *s)
   return m->n_passes;
 }
 
-static ej_err ej_compute_all(ej_sim *sim)
+/* in_step: the step loop already zeroed a and the rates (in the kick-drift chunks) and applies
+ * gravity and the constraints in the kick chunks (ej_kick_chunk), which saves two parallel
+ * regions per step; each particle sees the same operations in the same order. */
+static ej_err ej_compute_all(ej_sim *sim, bool in_step)
 {
   int max_pass = 0;
   for (int i = 0; i < sim->n_sets; ++i) {
-    EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_zero_chunk, NULL));
+    if (!in_step) EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_zero_chunk, NULL));
     const int np = ej_set_passes(sim->sets[i]);
     if (np > max_pass) max_pass = np;
   }
@@ -731,7 +775,8 @@ static ej_err ej_compute_all(ej_sim *sim)
       }
     }
   }
-  for (int i = 0; i < sim->n_sets; ++i) EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_body_chunk, NULL));
+  if (!in_step)
+    for (int i = 0; i < sim->n_sets; ++i) EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_body_chunk, NULL));
   return EJ_OK;
 }
 
@@ -863,6 +908,8 @@ static ej_err ej_kick_drift_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, 
       y[i] = yh[i] + h * rt[i];
     }
   }
+  /* a and the rates are not read again before the passes: zero them here (ej_compute_all) */
+  if (ctx) return ej_zero_chunk(sim, s, NULL, c, r);
   return EJ_OK;
 }
 
@@ -872,9 +919,12 @@ static ej_err ej_post_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   return s->mops->post_step(s->mstate, s, r);
 }
 
+/* Gravity and the constraints (ej_body_chunk, the end of ej_compute_all), then the second half
+ * kick. */
 static ej_err ej_kick_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
 {
-  (void)ctx, (void)c;
+  (void)ctx;
+  EJ_TRY(ej_body_chunk(sim, s, NULL, c, r));
   const ej_real h = 0.5 * sim->dt;
   ej_real *v = s->fields[s->f_v].data, *a = s->fields[s->f_a].data;
   const ej_real *vh = ej_set_field(s, "v_half");
@@ -917,7 +967,7 @@ static ej_err ej_energy_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_r
     const ej_real *e = f->data;
     for (ej_idx i = r.begin; i < r.end; ++i) acc[slot] += m[i] * e[i];
   }
-  memcpy(sim->chunk_scratch + c * EJ_NRED, acc, sizeof acc);
+  memcpy(sim->chunk_scratch + c * EJ_NSLOT, acc, sizeof acc);
   return EJ_OK;
 }
 
@@ -937,12 +987,13 @@ static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
     bool fixed[3] = {false, false, false};
     for (int b = 0; mask; ++b, mask >>= 1)
       if (mask & 1u)
-        for (int k = 0; k < 3; ++k) fixed[k] |= sim->scene->bcs[b].comp[k];
+        if (ej_bc_active(sim, &sim->scene->bcs[b]))
+          for (int k = 0; k < 3; ++k) fixed[k] |= sim->scene->bcs[b].comp[k];
     for (int k = 0; k < 3; ++k)
       if (!fixed[k]) gv += g[k] * vh[3 * i + k];
     w += m[i] * gv;
   }
-  sim->chunk_scratch[c * EJ_NRED] = (w + wbc) * sim->dt;
+  sim->chunk_scratch[c * EJ_NSLOT + EJ_S_WORK] = (w + wbc) * sim->dt;
   return EJ_OK;
 }
 
@@ -999,38 +1050,6 @@ static ej_err ej_reports_collect(ej_sim *sim, ej_real *ext)
   return EJ_OK;
 }
 
-static ej_err ej_energy_update(ej_sim *sim, bool with_work)
-{
-  ej_real tot[EJ_NRED] = {0}, work = 0;
-  for (int i = 0; i < sim->n_sets; ++i) {
-    ej_set *s = sim->sets[i];
-    EJ_TRY(ej_sim_scratch(sim, s));
-    const int64_t nch = ej_chunk_count(s);
-    if (with_work) {
-      EJ_TRY(ej_for_chunks(sim, s, ej_work_chunk, NULL));
-      for (int64_t c = 0; c < nch; ++c) work += sim->chunk_scratch[c * EJ_NRED];
-    }
-    EJ_TRY(ej_for_chunks(sim, s, ej_energy_chunk, NULL));
-    for (int64_t c = 0; c < nch; ++c)
-      for (int k = 0; k < EJ_NRED; ++k) tot[k] += sim->chunk_scratch[c * EJ_NRED + k];
-  }
-  ej_comm_sum(tot, EJ_NRED);
-  ej_comm_sum(&work, 1);
-  ej_energy *E = &sim->energy;
-  E->kinetic = tot[EJ_R_KIN];
-  E->internal = tot[EJ_R_INT];
-  E->viscous = tot[EJ_R_VISC];
-  E->plastic = tot[EJ_R_PLAS];
-  E->hourglass = tot[EJ_R_HG];
-  E->momentum[0] = tot[EJ_R_PX], E->momentum[1] = tot[EJ_R_PY], E->momentum[2] = tot[EJ_R_PZ];
-  E->work_gravity += work;
-  ej_real ext_plugins;
-  EJ_TRY(ej_reports_collect(sim, &ext_plugins));
-  E->external = E->work_gravity + ext_plugins;
-  E->balance = E->kinetic + E->internal - E->total0 - E->external;
-  return EJ_OK;
-}
-
 /* True when every value of d[0..n) is finite: branch-free over the block (a value is NaN or
  * infinite iff all its exponent bits are set), so the loop vectorises. */
 static bool ej_watch_block_finite(const ej_real *restrict d, size_t n)
@@ -1069,8 +1088,8 @@ static ej_err ej_watch_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ra
           bad_p = p, bad_f = -2; /* a particle outside the scene's domain */
           break;
         }
-    sim->chunk_scratch[c * EJ_NRED] = bad_p;
-    sim->chunk_scratch[c * EJ_NRED + 1] = bad_f;
+    sim->chunk_scratch[c * EJ_NSLOT + EJ_S_BADP] = bad_p;
+    sim->chunk_scratch[c * EJ_NSLOT + EJ_S_BADF] = bad_f;
     return EJ_OK;
   }
   for (ej_idx p = r.begin; p < r.end && bad_p < 0; ++p) {
@@ -1088,38 +1107,74 @@ static ej_err ej_watch_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ra
     /* bad_f = -2: a particle outside the scene's domain. */
     if (bad_p < 0 && dom && !ej_shape_contains(dom, x + 3 * (size_t)p)) bad_p = p, bad_f = -2;
   }
-  sim->chunk_scratch[c * EJ_NRED] = bad_p;
-  sim->chunk_scratch[c * EJ_NRED + 1] = bad_f;
+  sim->chunk_scratch[c * EJ_NSLOT + EJ_S_BADP] = bad_p;
+  sim->chunk_scratch[c * EJ_NSLOT + EJ_S_BADF] = bad_f;
   return EJ_OK;
 }
 
-static ej_err ej_watchdog(ej_sim *sim)
+/* Work, energies and the watchdog of one chunk in one pass (one parallel region per set). */
+static ej_err ej_diag_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
 {
+  if (*(const bool *)ctx) EJ_TRY(ej_work_chunk(sim, s, NULL, c, r));
+  EJ_TRY(ej_energy_chunk(sim, s, NULL, c, r));
+  return ej_watch_chunk(sim, s, NULL, c, r);
+}
+
+/* The NaN/inf and domain watchdog's message for particle bad of s (fk: the field, -2: outside). */
+static ej_err ej_watch_fail(ej_sim *sim, const ej_set *s, ej_idx bad, int fk)
+{
+  const ej_real *x = s->fields[s->f_x].data, *v = s->fields[s->f_v].data;
+  const int32_t *id = s->fields[s->f_id].data;
+  if (fk == -2)
+    EJ_FAIL(EJ_ERR_NUMERIC,
+            "watchdog: particle %s the domain (%s:%d) at step %lld, t = %.6g s, set '%s', particle id %d at "
+            "(%.6g, %.6g, %.6g), velocity (%.6g, %.6g, %.6g) m/s",
+            sim->step > 0 ? "left" : "starts outside",
+            sim->scene->domain_loc.file ? sim->scene->domain_loc.file : "scene", sim->scene->domain_loc.line,
+            (long long)sim->step, sim->t, s->name, id[bad], x[3 * bad], x[3 * bad + 1], x[3 * bad + 2], v[3 * bad],
+            v[3 * bad + 1], v[3 * bad + 2]);
+  const ej_field *f = &s->fields[fk];
+  EJ_FAIL(EJ_ERR_NUMERIC,
+          "watchdog: non-finite '%s' at step %lld, t = %.6g s, set '%s', particle id %d at (%.6g, %.6g, %.6g)",
+          f->name, (long long)sim->step, sim->t, s->name, id[bad], x[3 * bad], x[3 * bad + 1], x[3 * bad + 2]);
+}
+
+/* Energy budget (with the step's work of gravity and prescribed velocities when with_work), the
+ * plugins' series, then the watchdog: the first bad particle of the first set that has one
+ * (lowest chunk, then lowest index, then lowest field), whatever the thread count. */
+static ej_err ej_diagnostics(ej_sim *sim, bool with_work)
+{
+  ej_real tot[EJ_NRED] = {0}, work = 0;
+  const ej_set *bad_set = NULL;
+  ej_idx bad = -1;
+  int bad_f = -1;
   for (int i = 0; i < sim->n_sets; ++i) {
     ej_set *s = sim->sets[i];
     EJ_TRY(ej_sim_scratch(sim, s));
-    EJ_TRY(ej_for_chunks(sim, s, ej_watch_chunk, NULL));
     const int64_t nch = ej_chunk_count(s);
+    EJ_TRY(ej_for_chunks(sim, s, ej_diag_chunk, &with_work));
     for (int64_t c = 0; c < nch; ++c) {
-      if (sim->chunk_scratch[c * EJ_NRED] < 0) continue;
-      ej_idx bad = (ej_idx)sim->chunk_scratch[c * EJ_NRED];
-      const int fk = (int)sim->chunk_scratch[c * EJ_NRED + 1];
-      const ej_real *x = s->fields[s->f_x].data, *v = s->fields[s->f_v].data;
-      const int32_t *id = s->fields[s->f_id].data;
-      if (fk == -2)
-        EJ_FAIL(EJ_ERR_NUMERIC,
-                "watchdog: particle %s the domain (%s:%d) at step %lld, t = %.6g s, set '%s', particle id %d at "
-                "(%.6g, %.6g, %.6g), velocity (%.6g, %.6g, %.6g) m/s",
-                sim->step > 0 ? "left" : "starts outside",
-                sim->scene->domain_loc.file ? sim->scene->domain_loc.file : "scene", sim->scene->domain_loc.line,
-                (long long)sim->step, sim->t, s->name, id[bad], x[3 * bad], x[3 * bad + 1], x[3 * bad + 2], v[3 * bad],
-                v[3 * bad + 1], v[3 * bad + 2]);
-      const ej_field *f = &s->fields[fk];
-      EJ_FAIL(EJ_ERR_NUMERIC,
-              "watchdog: non-finite '%s' at step %lld, t = %.6g s, set '%s', particle id %d at (%.6g, %.6g, %.6g)",
-              f->name, (long long)sim->step, sim->t, s->name, id[bad], x[3 * bad], x[3 * bad + 1], x[3 * bad + 2]);
+      const ej_real *cs = sim->chunk_scratch + c * EJ_NSLOT;
+      if (with_work) work += cs[EJ_S_WORK];
+      for (int k = 0; k < EJ_NRED; ++k) tot[k] += cs[k];
+      if (!bad_set && cs[EJ_S_BADP] >= 0) bad_set = s, bad = (ej_idx)cs[EJ_S_BADP], bad_f = (int)cs[EJ_S_BADF];
     }
   }
+  ej_comm_sum(tot, EJ_NRED);
+  ej_comm_sum(&work, 1);
+  ej_energy *E = &sim->energy;
+  E->kinetic = tot[EJ_R_KIN];
+  E->internal = tot[EJ_R_INT];
+  E->viscous = tot[EJ_R_VISC];
+  E->plastic = tot[EJ_R_PLAS];
+  E->hourglass = tot[EJ_R_HG];
+  E->momentum[0] = tot[EJ_R_PX], E->momentum[1] = tot[EJ_R_PY], E->momentum[2] = tot[EJ_R_PZ];
+  E->work_gravity += work;
+  ej_real ext_plugins;
+  EJ_TRY(ej_reports_collect(sim, &ext_plugins));
+  E->external = E->work_gravity + ext_plugins;
+  E->balance = E->kinetic + E->internal - E->total0 - E->external;
+  if (bad_set) return ej_watch_fail(sim, bad_set, bad, bad_f);
   return EJ_OK;
 }
 
@@ -1204,6 +1259,10 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
 #endif
   }
   sim->progress = opts && opts->progress;
+  {
+    const char *prof = getenv("EJECTA_PROFILE");
+    sim->profile = prof && *prof && strcmp(prof, "0") != 0;
+  }
   if (opts && opts->t_end > 0) scene->t_end = opts->t_end;
   EJ_TRY_GOTO(rc, ej_models_create(sim), out_destroy);
   EJ_TRY_GOTO(rc, ej_sets_create(sim), out_destroy);
@@ -1241,11 +1300,11 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
     for (int i = 0; i < sim->n_sets; ++i)
       if (sim->sets[i]->mops->setup) EJ_TRY_GOTO(rc, sim->sets[i]->mops->setup(sim->sets[i]->mstate, sim->sets[i]), out_destroy);
     EJ_TRY_GOTO(rc, ej_rebuild(sim), out_destroy);
-    EJ_TRY_GOTO(rc, ej_compute_all(sim), out_destroy);
-    EJ_TRY_GOTO(rc, ej_energy_update(sim, false), out_destroy);
+    EJ_TRY_GOTO(rc, ej_compute_all(sim, false), out_destroy);
+    rc = ej_diagnostics(sim, false);
     sim->energy.total0 = sim->energy.kinetic + sim->energy.internal;
     sim->energy.balance = 0;
-    EJ_TRY_GOTO(rc, ej_watchdog(sim), out_destroy);
+    EJ_TRY_GOTO(rc, rc, out_destroy);
     EJ_TRY_GOTO(rc, ej_next_dt(sim), out_destroy);
     sim->next_output = 0;
     sim->next_checkpoint = scene->checkpoint_every > 0 ? scene->checkpoint_every : INFINITY;
@@ -1279,18 +1338,22 @@ ej_err ej_sim_run(ej_sim *sim)
   const double t0 = ej_wall();
   const int64_t step0 = sim->step;
   int64_t n_total = 0, psteps = 0;
+  sim->prof_par = 0, sim->prof_out = 0, sim->prof_regions = 0;
+  const double t0_prof = sim->profile ? ej_thread_cpu() : 0;
   for (int i = 0; i < sim->n_sets; ++i) n_total += sim->sets[i]->n;
   ej_err rc = EJ_OK;
   const ej_real eps = 1e-12 * (sc->t_end > 0 ? sc->t_end : 1);
   while (sim->t < sc->t_end - eps && (sc->max_steps <= 0 || sim->step < sc->max_steps)) {
     if (sim->t + sim->dt > sc->t_end) sim->dt = sc->t_end - sim->t; /* land on the end time */
-    for (int i = 0; i < sim->n_sets; ++i) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_drift_chunk, NULL), out);
+    static const bool zero = true;
+    for (int i = 0; i < sim->n_sets; ++i)
+      EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_drift_chunk, (void *)&zero), out);
     sim->t += sim->dt;
     sim->step++;
     bool due;
     EJ_TRY_GOTO(rc, ej_rebuild_due(sim, &due), out);
     if (due) EJ_TRY_GOTO(rc, ej_rebuild(sim), out);
-    EJ_TRY_GOTO(rc, ej_compute_all(sim), out);
+    EJ_TRY_GOTO(rc, ej_compute_all(sim, true), out);
     for (int i = 0; i < sim->n_sets; ++i) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_chunk, NULL), out);
     for (int i = 0; i < sim->n_sets; ++i)
       if (sim->sets[i]->mops->post_step) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_post_chunk, NULL), out);
@@ -1298,8 +1361,7 @@ ej_err ej_sim_run(ej_sim *sim)
       ej_inter *in = &sim->inter[k];
       if (EJ_HAS_OP(in->ops, ej_interaction_ops, post_step)) EJ_TRY_GOTO(rc, in->ops->post_step(in->state, in->a, in->b), out);
     }
-    EJ_TRY_GOTO(rc, ej_energy_update(sim, true), out);
-    EJ_TRY_GOTO(rc, ej_watchdog(sim), out);
+    EJ_TRY_GOTO(rc, ej_diagnostics(sim, true), out);
     const ej_real dt_used = sim->dt;
     EJ_TRY_GOTO(rc, ej_next_dt(sim), out);
     psteps += n_total;
@@ -1307,13 +1369,25 @@ ej_err ej_sim_run(ej_sim *sim)
     /* The series records the step just taken; checkpoints keep the next step's dt. */
     const ej_real dt_next = sim->dt;
     sim->dt = dt_used;
+    const double t_out = sim->profile ? ej_thread_cpu() : 0;
     rc = ej_output_series(sim->out, sim);
     sim->dt = dt_next;
     EJ_TRY_GOTO(rc, rc, out);
     EJ_TRY_GOTO(rc, ej_maybe_output(sim, last), out);
+    if (sim->profile) sim->prof_out += ej_thread_cpu() - t_out;
     if (sim->progress) ej_progress(sim, t0, step0, psteps, false);
   }
 out:
+  if (sim->profile && sim->step > step0) {
+    /* the serial fraction of the step loop (1 thread: time outside parallel regions / total) */
+    const int64_t ns = sim->step - step0;
+    sim->prof_loop = ej_thread_cpu() - t0_prof;
+    fprintf(stderr,
+            "ejecta: profile (CPU time of the main thread): %lld steps, %.4g ms per step, %.4g ms of it in %.3g "
+            "parallel regions per step, serial fraction %.4f (output: series and frames %.4f of the step)\n",
+            (long long)ns, 1e3 * sim->prof_loop / (double)ns, 1e3 * sim->prof_par / (double)ns,
+            (double)sim->prof_regions / (double)ns, 1 - sim->prof_par / sim->prof_loop, sim->prof_out / sim->prof_loop);
+  }
   if (sim->progress) ej_progress(sim, t0, step0, psteps, true);
   /* A numerical failure keeps its state (a last frame and a checkpoint) in NAME.partial. */
   const bool keep = rc == EJ_ERR_NUMERIC && ej_fail_keep(sim);

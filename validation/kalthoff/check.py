@@ -40,7 +40,7 @@ T_END = 90e-6
 LO, HI = 65.0, 72.0
 
 
-def scene(dx, out, width):
+def scene(dx, out, width, v0=V0, until=0.0):
     delta = 3.015 * dx
     c = 9.0 * E / (math.pi * 1.0 * delta ** 3)
     # a notch of finite width: the particles whose centres lie inside it are left out (at dx = 0.5 mm
@@ -51,6 +51,9 @@ def scene(dx, out, width):
         h = 0.5 * width - 0.01 * dx
         minus = f", minus: [{{box: {{min: [-1, {NOTCH_Y - h:.9g}], max: [{NOTCH_L}, {NOTCH_Y + h:.9g}]}}}}]"
     y_bc = NOTCH_Y - 0.5 * width
+    # until > 0: the edge velocity is prescribed up to that time only, then the edge is free (the
+    # impactor separates); 0: held for the whole run
+    until_txt = f", until: {until:.6g}" if until > 0 else ""
     s0 = math.sqrt(4.0 * math.pi * G0 / (9.0 * E * delta))
     text = f"""ejecta: 1
 dimension: 2
@@ -75,9 +78,23 @@ sets:
     notch_b: [{NOTCH_L}, {NOTCH_Y}, 0]
 boundaries:
   - symmetry: {{point: [0, 0], normal: [0, 1]}}
-  - {{set: plate, region: {{box: {{min: [-1, -1], max: [{1.5 * dx:.9g}, {y_bc:.9g}]}}}}, velocity: [{V0}, 0], components: [x]}}
+  - {{set: plate, region: {{box: {{min: [-1, -1], max: [{1.5 * dx:.9g}, {y_bc:.9g}]}}}}, velocity: [{v0}, 0], components: [x]{until_txt}}}
 """
     return text, delta, c, s0
+
+
+def chord_angle(x, y, d, dy, delta):
+    """Diagnostic, not the measure (added after the runs with a released edge, whose fits the secondary
+    cracks towards the centre line enter): the chord from the notch tip (50, 25) mm to the main crack
+    dy above the tip. In the band |y - (tip + dy)| < 0.5 mm the damaged particles (>= 0.35) nearest the
+    notch line (x within 2 delta of the smallest x > 49 mm: branches split off to larger x) give the
+    crack's x; angle = atan(dy / (x - tip_x))."""
+    sel = (d >= 0.35) & (np.abs(y - NOTCH_Y - dy) < 0.5e-3) & (x > NOTCH_L - 0.001)
+    if sel.sum() == 0:
+        return float("nan")
+    xm = x[sel].min()
+    xc = x[sel & (x < xm + 2 * delta)].mean()
+    return math.degrees(math.atan2(dy, xc - NOTCH_L))
 
 
 def crack_angle(x, y, d, first):
@@ -107,12 +124,17 @@ def main():
     ap.add_argument("--notch-width", type=float, default=1.5e-3, help="0: a cut of zero width")
     ap.add_argument("--first", type=float, default=25e-3, help="crack part fitted, in y from the tip [m]")
     ap.add_argument("--reuse", action="store_true", help="re-measure an existing output")
+    ap.add_argument("--v0", type=float, default=V0, help="prescribed edge velocity [m/s]")
+    ap.add_argument("--until", type=float, default=0.0,
+                    help="prescribe the edge velocity up to this time [s] only (0: the whole run)")
     ap.add_argument("--figure", default="kalthoff.png", help="figure name, written next to this script")
     args = ap.parse_args()
     exe = common.ejecta_binary(args.build)
     os.makedirs(args.out, exist_ok=True)
     tag = f"kalthoff_dx{args.dx * 1e3:g}_w{args.notch_width * 1e3:g}"
-    text, delta, c, s0 = scene(args.dx, os.path.join(args.out, tag + ".h5"), args.notch_width)
+    if args.v0 != V0 or args.until > 0:
+        tag += f"_v{args.v0:g}_u{args.until * 1e6:g}"
+    text, delta, c, s0 = scene(args.dx, os.path.join(args.out, tag + ".h5"), args.notch_width, args.v0, args.until)
     path, wall = common.run(exe, text, tag, args.out, threads=args.threads, reuse=args.reuse)
     d = common.read_frame(path)
     x = d["x"].reshape(len(d["x"]), -1)
@@ -123,7 +145,8 @@ def main():
     ok = LO <= ang <= HI
     n = len(dmg)
     print(f"kalthoff (2D PMB plane stress, half model, dx = {args.dx * 1e3:g} mm, {n} particles, delta = "
-          f"{delta * 1e3:.4g} mm, c = {c:.4g}, s0 = {s0:.5f}, notch width {args.notch_width * 1e3:g} mm), "
+          f"{delta * 1e3:.4g} mm, c = {c:.4g}, s0 = {s0:.5f}, notch width {args.notch_width * 1e3:g} mm, edge "
+          f"v = {args.v0:g} m/s {'until %g us' % (args.until * 1e6) if args.until > 0 else 'held'}), "
           f"t = {d['time'] * 1e6:.1f} us, wall {wall:.0f} s")
     if sel_all.sum():
         print(f"  crack reached x = {x[sel_all, 0].max() * 1e3:.1f} mm, y = {x[sel_all, 1].max() * 1e3:.1f} mm")
@@ -132,8 +155,18 @@ def main():
     # the path curves: the fitted angle depends on the part fitted (printed so that it can be judged)
     sens = [(w, crack_angle(x[:, 0], x[:, 1], dmg, w * 1e-3)["first"][0]) for w in (15, 20, 25, 30, 35)]
     print("  angle vs part fitted (mm above the tip: deg): " + ", ".join(f"{w}: {a:.1f}" for w, a in sens))
+    chords = [(w, chord_angle(x[:, 0], x[:, 1], dmg, w * 1e-3, delta)) for w in (15, 25)]
+    print("  diagnostic, chord from the tip to the main crack (mm above the tip: deg): "
+          + ", ".join(f"{w}: {a:.1f}" for w, a in chords))
     print(f"  crack angle to the impact direction, first {args.first * 1e3:g} mm above the tip ({npts} particles): "
           f"{ang:.1f} deg (target {LO:g}-{HI:g}): {'PASS' if ok else 'FAIL'}")
+    import h5py
+    with h5py.File(path, "r") as f:
+        e = f["series/energy"]
+        bal, ext, ke = e["balance"][-1], e["external"][-1], e["kinetic"][-1]
+        frac = f["series/plate/fracture_energy"][-1]
+    print(f"  energy at the end: kinetic {ke:.4g} J, fracture (dissipated) {frac:.4g} J, external {ext:.4g} J, "
+          f"balance {bal:.4g} J ({100 * bal / max(abs(ext), 1e-30):.3f} % of external)")
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

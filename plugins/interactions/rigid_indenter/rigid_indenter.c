@@ -56,6 +56,11 @@ typedef struct ri_state {
   ej_real force[3]; /* force on the indenter (reaction), N */
   ej_real P_prev, Q_prev; /* sum F_n . v_n and sum F_n . a_n */
   bool primed;
+  /* Written by compute for each range r it is given: span[r.begin] = r.end if a particle of r may
+   * touch the indenter, -r.end if none does (0: not computed yet). The serial sums of post_step
+   * then visit only the touched ranges, in index order (the same sums as a full sweep). */
+  ej_idx n_span;
+  ej_idx *span;
 } ri_state;
 
 static ej_err ri_check(const void *config, ej_diag *diag)
@@ -81,11 +86,22 @@ static ej_err ri_create(const void *config, ej_set *a, ej_set *b, void **state)
   const ej_real *nn = s->cfg.normal;
   const ej_real l = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
   for (int k = 0; k < 3; ++k) s->n[k] = l > 0 ? nn[k] / l : 0.0;
+  s->n_span = ej_set_count(a);
+  s->span = ej_calloc((size_t)s->n_span + 1, sizeof *s->span);
+  if (!s->span) {
+    ej_free(s);
+    EJ_FAIL(EJ_ERR_MEM, "rigid_indenter: out of memory");
+  }
   *state = s;
   return EJ_OK;
 }
 
-static void ri_destroy(void *state) { ej_free(state); }
+static void ri_destroy(void *state)
+{
+  ri_state *s = state;
+  if (s) ej_free(s->span);
+  ej_free(s);
+}
 
 /* Force on particle at p (fix_indent.cpp: dr = r - R, fmag = K dr^2 for dr < 0). */
 static inline void ri_force(const ri_state *s, const ej_real c[3], const ej_real *p, ej_real vol, ej_real F[3])
@@ -106,6 +122,15 @@ static inline void ri_force(const ri_state *s, const ej_real c[3], const ej_real
   }
 }
 
+/* Cheap pre-test: false only where ri_force certainly gives 0 (sphere: |x - c|^2 clearly beyond
+ * R^2, no square root), so skipping those particles changes no result. */
+static inline bool ri_near(const ri_state *s, const ej_real c[3], const ej_real *p)
+{
+  if (s->cfg.shape != RI_SPHERE) return true;
+  const ej_real dx = p[0] - c[0], dy = p[1] - c[1], dz = p[2] - c[2], R = s->cfg.radius;
+  return dx * dx + dy * dy + dz * dz <= R * R * (1.0 + 1e-9);
+}
+
 static inline void ri_center(const ri_state *s, ej_real t, ej_real c[3])
 {
   for (int k = 0; k < 3; ++k) c[k] = s->cfg.center[k] + s->cfg.velocity[k] * t;
@@ -120,12 +145,16 @@ static ej_err ri_compute(void *state, ej_set *a, ej_set *b, const ej_nbr *ab, in
   EJ_ENSURE(x && m && vol0 && acc, EJ_ERR_INTERNAL, "rigid_indenter: base fields missing");
   ej_real c[3];
   ri_center(s, ej_set_time(a), c);
+  bool touched = false;
   for (ej_idx i = r.begin; i < r.end; ++i) {
+    if (!ri_near(s, c, x + 3 * i)) continue;
+    touched = true;
     ej_real F[3];
     ri_force(s, c, x + 3 * i, vol0[i], F);
     const ej_real im = 1.0 / m[i];
     acc[3 * i] += F[0] * im, acc[3 * i + 1] += F[1] * im, acc[3 * i + 2] += F[2] * im;
   }
+  if (r.begin < s->n_span && r.end > r.begin) ((ri_state *)state)->span[r.begin] = touched ? r.end : -r.end;
   return EJ_OK;
 }
 
@@ -140,7 +169,18 @@ static void ri_sums(const ri_state *s, ej_real Ft[3], ej_real *P, ej_real *Q, ej
   ej_real c[3];
   ri_center(s, ej_set_time(a), c);
   Ft[0] = Ft[1] = Ft[2] = 0, *P = *Q = *H = 0;
+  ej_idx stop = 0; /* end of the current range; particles before it of an untouched range are skipped */
   for (ej_idx i = 0; i < n; ++i) {
+    if (i >= stop) {
+      /* a range compute has seen: skip it when no particle touched the indenter */
+      const ej_idx e = n == s->n_span ? s->span[i] : 0;
+      if (e < 0 && -e > i) {
+        i = -e - 1;
+        continue;
+      }
+      stop = e > i ? e : i + 1;
+    }
+    if (!ri_near(s, c, x + 3 * i)) continue;
     ej_real F[3];
     ri_force(s, c, x + 3 * i, vol0[i], F);
     if (F[0] == 0 && F[1] == 0 && F[2] == 0) continue;

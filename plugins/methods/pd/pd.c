@@ -159,6 +159,11 @@ typedef struct pd_state {
   ej_idx *cidx;  /* [n PD_CCAP] their indices, ascending */
   int64_t n_contact_builds;
   ej_err init_rc;
+  /* report sums per post_step range, so that report adds a few numbers instead of a serial sweep:
+   * rsum[3 r.begin ..] = damage, m w_frac and broken-bond sums over r, rend[r.begin] = r.end
+   * (0: not summed yet, then report sweeps the particles) */
+  ej_real *rsum;
+  ej_idx *rend;
 } pd_state;
 
 /* bits of the core's per-bond flags (ej_set_bond_flags) */
@@ -181,9 +186,12 @@ static ej_err pd_declare(const void *config, int dim, ej_decl *d)
       {.name = "e_pd", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST | EJ_FIELD_OUTPUT,
        .unit = "J/kg", .energy = EJ_ENERGY_INTERNAL,
        .doc = "Specific elastic energy of the intact bonds and the contact springs."},
-      {.name = "w_frac", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "J/kg", .energy = EJ_ENERGY_INTERNAL,
-       .doc = "Specific elastic energy released by broken bonds (kept in the internal energy so the budget "
-              "balances)."},
+      {.name = "w_frac", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "J/kg",
+       .doc = "Specific energy taken out by broken bonds: their elastic energy when they broke plus the work of "
+              "their last force over the next half step (reported as fracture_energy, role DISSIPATED)."},
+      {.name = "f_brk", .kind = EJ_VEC3, .flags = EJ_FIELD_NO_GHOST, .unit = "N/m^3",
+       .doc = "Force density of the bonds that broke in the last evaluation (still in a): its work over the "
+              "next half step is booked in w_frac by the next step's pass 0."},
       {.name = "n_broken", .kind = EJ_INT, .flags = EJ_FIELD_NO_GHOST, .unit = "1",
        .doc = "Bonds of this particle broken so far."},
   };
@@ -208,6 +216,7 @@ static void pd_free_arrays(pd_state *s)
   ej_free(s->r0), ej_free(s->wc), ej_free(s->vinter), ej_free(s->vint);
   ej_free(s->xcb), ej_free(s->cstart), ej_free(s->cellof), ej_free(s->order), ej_free(s->xss);
   ej_free(s->ccnt), ej_free(s->cidx), ej_free(s->xq);
+  ej_free(s->rsum), ej_free(s->rend);
 }
 
 static void pd_destroy(void *state)
@@ -275,16 +284,18 @@ static ej_err pd_setup(void *state, ej_set *set)
   pd_state *s = state;
   const ej_idx n = ej_set_count(set);
   ej_real *s0 = ej_set_field(set, "s0"), *wf = ej_set_field(set, "w_frac"), *dmg = ej_set_field(set, "damage");
-  ej_real *e = ej_set_field(set, "e_pd");
+  ej_real *e = ej_set_field(set, "e_pd"), *fb = ej_set_field(set, "f_brk");
   int32_t *nb = ej_set_field_int(set, "n_broken");
   const ej_real *m = ej_set_field(set, "m"), *vol0 = ej_set_field(set, "vol0");
-  EJ_ENSURE(s0 && wf && dmg && e && nb && m && vol0, EJ_ERR_INTERNAL, "set '%s': pd fields missing", s->set_name);
+  EJ_ENSURE(s0 && wf && dmg && e && nb && m && vol0 && fb, EJ_ERR_INTERNAL, "set '%s': pd fields missing",
+            s->set_name);
   for (ej_idx i = 0; i < n; ++i) {
     EJ_ENSURE(m[i] > 0 && vol0[i] > 0, EJ_ERR_INPUT, "set '%s': pd particle %d has mass %g, volume %g", s->set_name,
               (int)i, m[i], vol0[i]);
     /* LAMMPS creates peri atoms with s0 = DBL_MAX: no bond can break before one evaluation */
     s0[i] = DBL_MAX;
     wf[i] = 0, dmg[i] = 0, e[i] = 0, nb[i] = 0;
+    fb[3 * i] = fb[3 * i + 1] = fb[3 * i + 2] = 0;
   }
   return EJ_OK;
 }
@@ -340,7 +351,10 @@ static ej_err pd_init_bonds(pd_state *s, ej_set *set, const ej_nbr *nbr)
   s->wc = ej_malloc((size_t)(nnz ? nnz : 1) * sizeof *s->wc);
   s->vinter = ej_calloc((size_t)(n ? n : 1), sizeof *s->vinter);
   s->vint = ej_calloc((size_t)(n ? n : 1), sizeof *s->vint);
-  EJ_ENSURE(s->r0 && s->wc && s->vinter && s->vint, EJ_ERR_MEM, "pd: out of memory for %lld bonds", (long long)nnz);
+  s->rsum = ej_calloc(3 * (size_t)(n ? n : 1), sizeof *s->rsum);
+  s->rend = ej_calloc((size_t)(n ? n : 1), sizeof *s->rend);
+  EJ_ENSURE(s->r0 && s->wc && s->vinter && s->vint && s->rsum && s->rend, EJ_ERR_MEM,
+            "pd: out of memory for %lld bonds", (long long)nnz);
   const ej_real *x0 = ej_set_field(set, "x0"), *vol0 = ej_set_field(set, "vol0");
   ej_real *im = ej_set_field(set, "lps_im");
   EJ_ENSURE(x0 && vol0, EJ_ERR_INTERNAL, "set '%s': pd needs x0 and vol0", s->set_name);
@@ -597,6 +611,23 @@ static ej_err pd_pass0(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
       }
     }
   }
+  {
+    /* The bonds that broke in the last evaluation were broken after their force was applied
+     * (LAMMPS), so that force is still in a_n and acts over this step's first half kick and drift
+     * (x_n+1 - x_n = dt v_half), with no potential energy left to pay for it: its work
+     * 1/2 V_i f_brk . dt v_half (trapezoid, force 0 at the end of the step) leaves the mechanical
+     * energy and is booked with the released bond energy, so the budget closes. */
+    ej_real *fb = ej_set_field(set, "f_brk"), *wf = ej_set_field(set, "w_frac");
+    const ej_real *vh = ej_set_field(set, "v_half"), *m = ej_set_field(set, "m"), *vol0 = ej_set_field(set, "vol0");
+    EJ_ENSURE(fb && wf && m && vol0, EJ_ERR_INTERNAL, "set '%s': pd fields missing", s->set_name);
+    const ej_real hdt = 0.5 * ej_set_dt(set);
+    for (ej_idx i = r.begin; i < r.end; ++i) {
+      ej_real *f = fb + 3 * (size_t)i;
+      if (f[0] == 0.0 && f[1] == 0.0 && f[2] == 0.0) continue;
+      if (vh) wf[i] -= hdt * vol0[i] / m[i] * (f[0] * vh[3 * i] + f[1] * vh[3 * i + 1] + f[2] * vh[3 * i + 2]);
+      f[0] = f[1] = f[2] = 0.0;
+    }
+  }
   if (s->xq) {
     /* positions and s0 of this step packed for pass 1; ghosts by the chunk that ends the set */
     const ej_real *s0 = ej_set_field(set, "s0");
@@ -668,7 +699,7 @@ static ej_err pd_contact_ready(pd_state *s, ej_set *set, ej_range r)
 
 typedef struct pd_args {
   const ej_real *x, *x0, *m, *vol0, *s0, *theta, *im, *tm;
-  ej_real *a, *s0n, *e, *wf, *vint;
+  ej_real *a, *s0n, *e, *wf, *vint, *fb;
   int32_t *nbk;
   const ej_off *off;
   const ej_idx *idx;
@@ -873,13 +904,14 @@ static inline void pd_row_lps(const pd_state *s, const pd_args *A, ej_idx i, boo
  * checkpointed) and zero their wc, move their energy from the elastic to the released energy,
  * and recompute the intact volume sum in row order. The stretch is recomputed with exactly the
  * operations of the vector sweep (no FMA contraction in ISO C mode), so the decisions agree. */
-static void pd_settle(const pd_state *s, const pd_args *A, ej_idx i, pd_row *o, ej_real *e_brk, int *nbroken)
+static void pd_settle(const pd_state *s, const pd_args *A, ej_idx i, pd_row *o, ej_real *e_brk, int *nbroken,
+                      ej_real f_brk[3])
 {
   const ej_real *x = A->x, *r0 = A->r0, *s0 = A->s0, *vol0 = A->vol0;
   const bool lps = s->cfg.model == PD_LPS;
   const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2], s0i = s0[i];
   const ej_real gi = lps ? 15.0 * s->G * A->im[i] : 0.0, th3 = lps ? A->theta[i] / 3.0 : 0.0;
-  ej_real en = 0, eb = 0, vi = 0;
+  ej_real en = 0, eb = 0, vi = 0, fbx = 0, fby = 0, fbz = 0;
   int nb = 0;
   for (ej_off k = A->off[i]; k < A->off[i + 1]; ++k) {
     const ej_real w = A->wc[k];
@@ -890,21 +922,27 @@ static void pd_settle(const pd_state *s, const pd_args *A, ej_idx i, pd_row *o, 
     const ej_real rr0 = r0[k];
     ej_real dr = r - rr0;
     dr = fabs(dr) < PD_NEAR_ZERO ? 0.0 : dr;
-    ej_real st, term;
+    ej_real st, term, fq;
     if (lps) {
       const ej_real inv_r0 = 1.0 / rr0, ed = dr - th3 * rr0;
       st = dr * inv_r0;
       term = gi * ed * ed * w * inv_r0;
+      /* the bond's force as in pd_row_lps */
+      const ej_real rk = (3.0 * s->K - 5.0 * s->G) * w * (A->tm[i] + A->tm[j]) +
+                         15.0 * s->G * w * (A->im[i] + A->im[j]) * dr * inv_r0;
+      fq = r > 0.0 ? rk / r : 0.0;
     } else {
       const ej_real q = r > 0.0 ? 1.0 / (rr0 * r) : 0.0;
       st = r > 0.0 ? dr * r * q : -1.0;
       term = w * st * dr;
+      fq = w * dr * q;
     }
     const ej_real s0j = s0[j];
     if (st > (s0i < s0j ? s0i : s0j)) {
       A->flags[k] |= PD_BROKEN;
       A->wc[k] = 0.0;
       eb += term;
+      fbx += fq * dx, fby += fq * dy, fbz += fq * dz;
       ++nb;
     } else {
       en += term;
@@ -915,6 +953,7 @@ static void pd_settle(const pd_state *s, const pd_args *A, ej_idx i, pd_row *o, 
   o->en = h * en + (lps ? 0.5 * s->K * A->theta[i] * A->theta[i] : 0.0);
   *e_brk = h * eb;
   *nbroken = nb;
+  f_brk[0] = fbx, f_brk[1] = fby, f_brk[2] = fbz;
   A->vint[i] = vi;
 }
 
@@ -975,15 +1014,16 @@ static ej_err pd_pass1(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
                .s0 = ej_set_field(set, "s0"), .theta = ej_set_field(set, "theta"), .im = ej_set_field(set, "lps_im"),
                .tm = ej_set_field(set, "lps_tm"), .a = ej_set_field(set, "a"), .s0n = ej_set_field(set, "s0_new"),
                .e = ej_set_field(set, "e_pd"), .wf = ej_set_field(set, "w_frac"), .vint = s->vint,
+               .fb = ej_set_field(set, "f_brk"),
                .nbk = ej_set_field_int(set, "n_broken"), .off = nbr->off, .idx = nbr->idx, .r0 = s->r0, .wc = s->wc,
                .flags = s->flags, .x0 = ej_set_field(set, "x0"), .dmax = s->cfg.contact ? 1.35 * s->lc : 0.0};
-  EJ_ENSURE(A.x && A.m && A.vol0 && A.s0 && A.a && A.s0n && A.e && A.wf && A.nbk, EJ_ERR_INTERNAL,
+  EJ_ENSURE(A.x && A.m && A.vol0 && A.s0 && A.a && A.s0n && A.e && A.wf && A.fb && A.nbk, EJ_ERR_INTERNAL,
             "set '%s': pd fields missing", s->set_name);
   const bool lps = s->cfg.model == PD_LPS, contact = s->cfg.contact, fail = s->failure;
   const ej_real s00 = s->cfg.s00, alpha = s->cfg.alpha;
   for (ej_idx i = r.begin; i < r.end; ++i) {
     pd_row o;
-    ej_real fc[3] = {0, 0, 0}, e_brk = 0;
+    ej_real fc[3] = {0, 0, 0}, e_brk = 0, f_brk[3] = {0, 0, 0};
     int nbroken = 0;
     /* specialised calls: the vector loops carry no test of fail */
     if (lps) {
@@ -999,7 +1039,7 @@ static ej_err pd_pass1(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
       if (fail) pd_row_pmb(&A, i, true, &o);
       else pd_row_pmb(&A, i, false, &o);
     }
-    if (o.nbrk > 0.0) pd_settle(s, &A, i, &o, &e_brk, &nbroken);
+    if (o.nbrk > 0.0) pd_settle(s, &A, i, &o, &e_brk, &nbroken, f_brk);
     ej_real en = o.en;
     if (contact) {
       ej_real ec = 0;
@@ -1017,6 +1057,7 @@ static ej_err pd_pass1(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
     A.e[i] = en * inv_rho;
     if (nbroken) {
       A.wf[i] += e_brk * inv_rho;
+      A.fb[3 * i] = f_brk[0], A.fb[3 * i + 1] = f_brk[1], A.fb[3 * i + 2] = f_brk[2];
       A.nbk[i] += nbroken;
     }
   }
@@ -1044,9 +1085,19 @@ static ej_err pd_post_step(void *state, ej_set *set, ej_range r)
   EJ_ENSURE(s0 && dmg && s0n, EJ_ERR_INTERNAL, "set '%s': pd fields missing", s->set_name);
   if (!s->ready) return EJ_OK;
   if (r.begin == 0) s->epoch++; /* read in the next step's passes, after the barrier */
+  const ej_real *wf = ej_set_field(set, "w_frac"), *m = ej_set_field(set, "m");
+  const int32_t *nb = ej_set_field_int(set, "n_broken");
+  EJ_ENSURE(wf && m && nb, EJ_ERR_INTERNAL, "set '%s': pd fields missing", s->set_name);
+  ej_real dsum = 0, efrac = 0, broken = 0;
   for (ej_idx i = r.begin; i < r.end; ++i) {
     s0[i] = s0n[i];
     dmg[i] = s->vinter[i] != 0.0 ? 1.0 - s->vint[i] / s->vinter[i] : 0.0;
+    dsum += dmg[i], efrac += m[i] * wf[i], broken += nb[i];
+  }
+  if (r.end > r.begin && s->rsum) {
+    s->rsum[3 * (size_t)r.begin] = dsum, s->rsum[3 * (size_t)r.begin + 1] = efrac;
+    s->rsum[3 * (size_t)r.begin + 2] = broken;
+    s->rend[r.begin] = r.end;
   }
   return EJ_OK;
 }
@@ -1082,13 +1133,25 @@ static ej_err pd_report(void *state, const ej_set *set, ej_series_value *out, in
   const ej_idx np = ej_set_count(set);
   const ej_real *dmg = ej_set_field(set, "damage"), *wf = ej_set_field(set, "w_frac"), *m = ej_set_field(set, "m");
   const int32_t *nb = ej_set_field_int(set, "n_broken");
-  ej_real dsum = 0, efrac = 0;
-  int64_t broken = 0;
-  for (ej_idx i = 0; i < np; ++i) dsum += dmg[i], efrac += m[i] * wf[i], broken += nb[i];
+  ej_real dsum = 0, efrac = 0, broken = 0;
+  /* the ranges' sums of this step's post_step, in index order (the core's chunks depend on the
+   * set's size only: the same sums for any thread count); particles no range summed (before the
+   * first step) are swept here */
+  for (ej_idx i = 0; i < np;) {
+    const ej_idx e = s->rend && s->ready ? s->rend[i] : 0;
+    if (e > i) {
+      dsum += s->rsum[3 * (size_t)i], efrac += s->rsum[3 * (size_t)i + 1], broken += s->rsum[3 * (size_t)i + 2];
+      i = e;
+    } else {
+      dsum += dmg[i], efrac += m[i] * wf[i], broken += nb[i];
+      ++i;
+    }
+  }
   out[0] = (ej_series_value){.name = "damage_mean", .value = np ? dsum / np : 0};
   /* each broken bond is counted from both ends, like LAMMPS's partner lists */
   out[1] = (ej_series_value){.name = "broken_bonds", .value = (ej_real)broken};
-  out[2] = (ej_series_value){.name = "fracture_energy", .value = efrac};
+  /* energy taken out by broken bonds: DISSIPATED, so that external = work - fracture_energy */
+  out[2] = (ej_series_value){.name = "fracture_energy", .value = efrac, .role = EJ_SERIES_DISSIPATED};
   out[3] = (ej_series_value){.name = "contact_builds", .value = (ej_real)s->n_contact_builds};
   *n = 4;
   return EJ_OK;
