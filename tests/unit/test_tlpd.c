@@ -274,6 +274,79 @@ START_TEST(test_uniform_stress)
 }
 END_TEST
 
+/* Patch test across a refine: interface (issue 4, item 3): a uniform strain (x = A x0) with a
+ * uniform stress must give
+ * zero force on every row farther than a coarse horizon from the free surfaces, also on the
+ * dual-horizon rows of the 4 mm / 8 mm interface. Without ghost_force_correction these rows carry
+ * the ghost force (about 0.25 P/dx in 1-D, asserted > 0.05 so that the test can fail). */
+static double refine_ghost(int dim, bool corr)
+{
+  char y[1024];
+  const char *box = dim == 1 ? "{min: [0], max: [0.4]}" : "{min: [0, 0], max: [0.2, 0.16]}";
+  const char *rbox = dim == 1 ? "{min: [-1], max: [0.2]}" : "{min: [-1, -1], max: [0.1, 1]}";
+  snprintf(y, sizeof y,
+           "ejecta: 1\ndimension: %d\ntime: {end: 1e-6}\n" MAT
+           "sets: {b: {method: tlpd, material: m, shape: {box: %s}, spacing: 0.008, "
+           "refine: [{region: {box: %s}, spacing: 0.004}], ghost_force_correction: %s}}\n",
+           dim, box, rbox, corr ? "true" : "false");
+  trun r;
+  trun_open(&r, y);
+  ej_set *s = r.sim->sets[0];
+  const ej_idx n = ej_set_count(s);
+  ej_real *sig = ej_set_field(s, "stress"), *x = ej_set_field(s, "x"), *xp = ej_set_field(s, "x_prev");
+  const ej_real *x0c = ej_set_field(s, "x0");
+  const ej_real P = 1e6;
+  /* uniform strain x = A x0 (F = A exactly, patch test) and a uniform Cauchy stress */
+  const ej_real A[4] = {1.01, 0.02, -0.015, 0.99};
+  for (ej_idx i = 0; i < n; ++i) {
+    for (int a = 0; a < dim; ++a) {
+      x[3 * i + a] = 0;
+      for (int c = 0; c < dim; ++c) x[3 * i + a] += A[2 * a + c] * x0c[3 * i + c];
+      xp[3 * i + a] = x[3 * i + a];
+    }
+    sig[6 * i] = -P, sig[6 * i + 1] = -0.5 * P, sig[6 * i + 2] = -0.3 * P;
+    sig[6 * i + 5] = 0.2 * P; /* a shear component too (Voigt xy) */
+  }
+  trun_compute(&r);
+  const ej_real *acc = ej_set_field(s, "a"), *x0 = ej_set_field(s, "x0"), *m = ej_set_field(s, "m");
+  const ej_real *vol0 = ej_set_field(s, "vol0");
+  const double hi[2] = {0.4, 0.2}, hi2 = 0.16, margin = 0.06; /* two coarse horizons (24 mm + dx/2): a row sees the surface through its neighbours' K */
+  double worst = 0;
+  int nin = 0, nfine = 0, ncoarse = 0;
+  for (ej_idx i = 0; i < n; ++i) {
+    bool in = x0[3 * i] > margin && x0[3 * i] < hi[dim - 1] - margin;
+    if (dim == 2) in = in && x0[3 * i + 1] > margin && x0[3 * i + 1] < hi2 - margin;
+    if (!in) continue;
+    ++nin;
+    const double dx = dim == 1 ? vol0[i] : sqrt(vol0[i]);
+    nfine += dx < 0.006, ncoarse += dx > 0.006;
+    const double rho0 = m[i] / vol0[i];
+    for (int q = 0; q < dim; ++q) worst = fmax(worst, fabs(acc[3 * i + q]) * rho0 * dx / P); /* in units of P/dx */
+  }
+  ck_assert_int_gt(nfine, 10);
+  ck_assert_int_gt(ncoarse, 10);
+  ck_assert_int_gt(nin, 20);
+  trun_close(&r);
+  return worst;
+}
+
+START_TEST(test_patch_refine_interface)
+{
+  for (int dim = 1; dim <= 2; ++dim) {
+    const double off = refine_ghost(dim, false), on = refine_ghost(dim, true);
+    fprintf(stderr, "tlpd refine interface, %d-D: ghost force of a uniform stress %.3e P/dx without, %.3e with ghost_force_correction\n",
+            dim, off, on);
+    ck_assert_msg(off > 0.05, "%d-D: the uncorrected interface should carry a ghost force (%g P/dx)", dim, off);
+    /* 1-D: every interior interface row is corrected. 2-D: the free-surface test of the rows
+     * (their neighbours' cells cover >= 0.85 of the horizon disc) misses some interface rows
+     * (0.58-0.82 of the disc with 8 mm cells in a 12 mm horizon), which keep their ghost force:
+     * only "no worse" is asserted there (issue 4, item 3, open) */
+    if (dim == 1) ck_assert_msg(on < 1e-9, "%d-D: ghost force %g P/dx with the correction", dim, on);
+    else ck_assert_msg(on <= off * (1 + 1e-9), "%d-D: ghost force %g P/dx with the correction, %g without", dim, on, off);
+  }
+}
+END_TEST
+
 /* ------------------------------------------------------------------ bonds */
 
 START_TEST(test_bond_breaking)
@@ -608,6 +681,7 @@ int main(void)
   tcase_add_test(tc, test_conservation_silling);
   tcase_add_test(tc, test_difference_not_conservative);
   tcase_add_test(tc, test_uniform_stress);
+  tcase_add_test(tc, test_patch_refine_interface);
   tcase_add_test(tc, test_bond_breaking);
   tcase_add_test(tc, test_point_failure_detached);
   tcase_add_test(tc, test_spring_fallback);

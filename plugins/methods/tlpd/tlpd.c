@@ -70,6 +70,7 @@ typedef struct tlpd_config {
   ej_real min_rcond;
   bool output_F;
   bool energy_correction;
+  bool ghost_force_correction;
   ej_real damping;
   tlpd_failure_cfg failure;
   tlpd_traction_cfg traction;
@@ -128,6 +129,10 @@ static const ej_param tlpd_params[] = {
      .doc = "Re-evaluate the internal-energy rate at the final velocity of the step (exact in total, per "
             "particle -a_int . (v_n+1 - v_pred)); false leaves the core's predicted-velocity rate, whose energy "
             "error grows as dt^2 sum |a_n+1 - a_n|^2 (2.6 % on the tearing bar at cfl 0.5)."},
+    EJ_PARAM_BOOL(tlpd_config, ghost_force_correction, 1,
+                  "Variable spacing only: remove the ghost force of a uniform stress on the rows near a change of "
+                  "spacing (f_i -= P_i e_i, e_i = K_i^-1 m1_i + sum_j B_ij K_j^-1 X_ij), so that a uniform strain gives "
+                  "zero force across a refine: interface; its power goes to e (momentum not exact there)."),
     EJ_PARAM_REAL(tlpd_config, damping, "1/s", 0, 0, 0, EJ_PF_HAS_MIN,
                   "Mass-proportional velocity damping a -= damping v (for quasi-static runs); the removed "
                   "energy is reported as dissipated."),
@@ -192,6 +197,11 @@ typedef struct tlpd_state {
   uint8_t *vp_ok;      /* [n] vpred and aint belong to this step */
   uint8_t *row_intact; /* [n] no broken bond in the row (the bond loops skip the flag test) */
   uint8_t *fprev_ok;   /* [n] F holds F_n of the previous step over the same bonds (so grad du = F - F_n) */
+  uint8_t *mixed;      /* [n] the row has a bond to a particle of another vol0 (variable spacing) */
+  uint8_t *full;       /* [n] the row's family fills its horizon ball (the neighbours' cells, each of its own
+                        * size, cover >= 0.85 of the ball's volume: not at a free surface) */
+  uint8_t *gf_state;   /* [n] ghost-force vector: 0 not computed, 1 not in the interface zone, 2 egf holds it */
+  ej_real *egf;        /* [3n] K_i e_i: the force of a uniform P on row i is P_i e_i = PK_i (K_i e_i) */
   ej_real *m1;         /* [3n] first moment sum_j w_ij V_j X over intact bonds (force pass: sum_j A G_i X = G_i m1) */
   int32_t *n_fallback; /* [n] particle-steps with a singular K */
   /* stable step of the current family (tlpd_stable_dt): per row h_self = |K^-1 m1| and
@@ -259,6 +269,7 @@ static void tlpd_free_arrays(tlpd_state *s)
   ej_free(s->wa), ej_free(s->Kinv), ej_free(s->d6), ej_free(s->wp);
   ej_free(s->p_eos), ej_free(s->c_eos), ej_free(s->area), ej_free(s->row_ready), ej_free(s->n_fallback);
   ej_free(s->fprev_ok), ej_free(s->m1), ej_free(s->row_intact), ej_free(s->aint), ej_free(s->vpred), ej_free(s->vp_ok), ej_free(s->dxp), ej_free(s->nbroken);
+  ej_free(s->mixed), ej_free(s->full), ej_free(s->gf_state), ej_free(s->egf);
   ej_free(s->hself), ej_free(s->hsum), ej_free(s->dt_fam), ej_free(s->dt_fam_t);
 }
 
@@ -410,6 +421,10 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
   s->dxp = ej_calloc(nn, sizeof *s->dxp);
   s->nbroken = ej_calloc(nn, sizeof *s->nbroken);
   s->m1 = ej_calloc(3 * nn, sizeof *s->m1);
+  s->mixed = ej_calloc(nn, 1);
+  s->full = ej_calloc(nn, 1);
+  s->gf_state = ej_calloc(nn, 1);
+  s->egf = ej_calloc(3 * nn, sizeof *s->egf);
   s->n_fallback = ej_calloc(nn, sizeof *s->n_fallback);
   s->hself = ej_calloc(nn, sizeof *s->hself);
   s->hsum = ej_calloc(nn, sizeof *s->hsum);
@@ -423,7 +438,7 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->c_eos = ej_calloc(nn, sizeof *s->c_eos);
   }
   if (!s->wa || !s->wb || !s->Kinv || !s->d6 || !s->wp || !s->area || !s->row_ready || !s->n_fallback || !s->fprev_ok || !s->row_intact || !s->aint || !s->vpred || !s->vp_ok || !s->dxp || !s->nbroken ||
-      !s->m1 || !s->hself || !s->hsum || !s->dt_fam || !s->dt_fam_t ||
+      !s->m1 || !s->mixed || !s->full || !s->gf_state || !s->egf || !s->hself || !s->hsum || !s->dt_fam || !s->dt_fam_t ||
       (s->eos && (!s->p_eos || !s->c_eos))) {
     tlpd_free_arrays(s);
     s->wa = s->wb = NULL;
@@ -433,6 +448,8 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->m1 = s->hself = s->hsum = s->dt_fam = s->dt_fam_t = s->dxp = NULL;
     s->nbroken = NULL;
     s->n_fallback = NULL;
+    s->mixed = s->full = s->gf_state = NULL;
+    s->egf = NULL;
     EJ_FAIL(EJ_ERR_MEM, "set '%s': tlpd out of memory for %lld bonds", s->name, (long long)s->nb);
   }
   return EJ_OK;
@@ -471,6 +488,7 @@ static void tlpd_refresh_row(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_i
     wsum += w;
   }
   memcpy(s->m1 + 3 * i, M1, sizeof M1);
+  s->gf_state[i] = 0; /* ghost-force vector recomputed at the next force pass */
   s->fprev_ok[i] = 0; /* the bond set changed: F of the previous step is not N_n K^-1 */
   damage[i] = vall > 0 ? 1 - vint / vall : 1;
   ej_real *Ki = s->Kinv + 9 * i;
@@ -537,16 +555,27 @@ static void tlpd_init_row(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_idx 
   const ej_real *x0 = ej_set_field(set, "x0"), *vol0 = ej_set_field(set, "vol0");
   const ej_real dxi = tlpd_dx(s, vol0[i]), di = tlpd_delta(s, dxi);
   s->dxp[i] = dxi;
+  ej_real vball = 0; /* sum of beta V over the family, against the horizon ball's volume */
   for (ej_off k = nbr->off[i]; k < nbr->off[i + 1]; ++k) {
     const ej_idx j = nbr->idx[k];
     const ej_real X[3] = {x0[3 * j] - x0[3 * i], x0[3 * j + 1] - x0[3 * i + 1], x0[3 * j + 2] - x0[3 * i + 2]};
     const ej_real r = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
     s->wa[k] = (tlpd_wt)(tlpd_weight(&s->cfg, r, di, dxi) * vol0[j]);
+    if (vol0[j] != vol0[i]) s->mixed[i] = 1;
+    if (s->mixed[i] || vol0[j] != vol0[i]) { /* the neighbour's cell, of its own size, inside the ball */
+      const ej_real dxj = tlpd_dx(s, vol0[j]);
+      vball += fmin(1, fmax(0, (di + 0.5 * dxj - r) / dxj)) * vol0[j];
+    } else {
+      vball += fmin(1, fmax(0, (di + 0.5 * dxi - r) / dxi)) * vol0[j];
+    }
     if (!s->wb_alias) {
       const ej_real dxj = tlpd_dx(s, vol0[j]), dj = tlpd_delta(s, dxj);
       s->wb[k] = (tlpd_wt)(tlpd_weight(&s->cfg, r, dj, dxj) * vol0[j]);
     }
   }
+  vball += vol0[i];
+  const ej_real ball = s->dim == 3 ? 4.0 / 3.0 * M_PI * di * di * di : s->dim == 2 ? M_PI * di * di : 2 * di;
+  s->full[i] = vball >= 0.85 * ball;
   const tlpd_traction_cfg *t = &s->cfg.traction;
   s->area[i] = 0;
   if (t->pressure != 0) {
@@ -760,6 +789,56 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
 
 /* ------------------------------------------------------------------ pass 1: forces */
 
+/* Ghost force of a change of spacing (issue 4, item 3). With the sum form, a uniform first
+ * Piola-Kirchhoff stress P puts the force density P e_i on row i,
+ *   e_i = K_i^-1 m1_i + sum_j B_ij K_j^-1 X_ij   (intact bonds, j a correspondence point),
+ * which vanishes in the interior of a uniform lattice but not within a horizon of a refine:
+ * interface (dual-horizon rows: one-sided, unequal-volume families and neighbours' K_j of the
+ * other spacing; up to 0.25 P/dx in 1-D, validation/tlpd_refine). On the rows of the interface
+ * zone (a bond to a particle of another vol0, or a neighbour with one) the force pass subtracts
+ * P_i e_i = PK_i (K_i e_i), except on rows that see a free surface (own or a neighbour's family
+ * not filling its horizon ball): a uniform strain then gives zero force there (the patch test of
+ * tests/unit/test_tlpd.c), like the partial-stress correction of Silling, Littlewood & Seleson
+ * (2015, variable horizon). The correction is not antisymmetric, so momentum is exact only for a
+ * uniform stress on those rows; its power goes to e so that the energy budget closes. Rows of a
+ * uniform spacing (free surfaces included) are untouched. Computed once per row (again after its
+ * bonds break), from the K^-1 of the neighbours at that time. */
+static void tlpd_ghost_vector(tlpd_state *s, const ej_set *set, const ej_nbr *nbr, ej_idx i, const ej_real *Kinv_f)
+{
+  const ej_real *x0 = ej_set_field((ej_set *)set, "x0"), *vol0 = ej_set_field((ej_set *)set, "vol0");
+  const int32_t *status = ej_set_field_int((ej_set *)set, "pd_status");
+  const uint8_t *flags = ej_set_bond_flags((ej_set *)set);
+  bool zone = s->mixed[i], full = s->full[i];
+  for (ej_off k = nbr->off[i]; k < nbr->off[i + 1]; ++k) {
+    const ej_idx j = nbr->idx[k];
+    zone = zone || (j < s->n ? s->mixed[j] : vol0[j] != vol0[i]);
+    full = full && (j >= s->n || s->full[j]); /* a mirror ghost completes the family */
+  }
+  s->gf_state[i] = 1;
+  /* rows that see a free surface (their own or a neighbour's family truncated) keep the sum
+   * form's surface force: the correction there removed the restoring force of the surface
+   * layer and was unstable (2-D, det F < 0 within 50 steps) */
+  if (!zone || !full || status[i] != TLPD_OK) return;
+  ej_real e[3], sb[3] = {0, 0, 0};
+  ej_m3_apply(e, s->Kinv + 9 * i, s->m1 + 3 * i);
+  for (ej_off k = nbr->off[i]; k < nbr->off[i + 1]; ++k) {
+    if (flags[k] & TLPD_BROKEN) continue;
+    const ej_idx j = nbr->idx[k];
+    if (status[j] != TLPD_OK || !(s->wb[k] > 0)) continue;
+    const ej_real X[3] = {x0[3 * j] - x0[3 * i], x0[3 * j + 1] - x0[3 * i + 1], x0[3 * j + 2] - x0[3 * i + 2]};
+    ej_real u[3];
+    ej_m3_apply(u, j < s->n ? s->Kinv + 9 * j : Kinv_f + 9 * j, X);
+    for (int q = 0; q < 3; ++q) sb[q] += s->wb[k] * u[q];
+  }
+  for (int q = 0; q < 3; ++q) e[q] += sb[q];
+  /* K_i e_i (K from its inverse; the padded dimensions of K^-1 are 1 and e has no component there) */
+  ej_real Kf[9] = {0};
+  if (ej_m3_inverse(Kf, s->Kinv + 9 * i) == 0) return;
+  ej_m3_apply(s->egf + 3 * i, Kf, e);
+  for (int q = s->dim; q < 3; ++q) s->egf[3 * i + q] = 0;
+  s->gf_state[i] = 2;
+}
+
 static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
 {
   const ej_real *restrict x = ej_set_field(set, "x"), *restrict v = ej_set_field(set, "v");
@@ -786,8 +865,16 @@ static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej
 
   const ej_real *restrict G = ej_set_field(set, "G_pk");
   const bool fast = !diff && !silling && G;
+  const ej_real *Kinv_f = ej_set_field(set, "K_inv");
+  const bool gfc = s->cfg.ghost_force_correction && !s->wb_alias && !diff && Kinv_f;
   for (ej_idx i = r.begin; i < r.end; ++i) {
     const int si = status[i];
+    if (gfc && s->gf_state[i] == 0) tlpd_ghost_vector(s, set, nbr, i, Kinv_f);
+    ej_real gc[3] = {0, 0, 0}; /* ghost-force correction -P_i e_i (force density) */
+    if (gfc && s->gf_state[i] == 2 && si == TLPD_OK) {
+      const ej_real *PKi = PK + 9 * i, *eg = s->egf + 3 * i;
+      for (int q = 0; q < 3; ++q) gc[q] = -(PKi[3 * q] * eg[0] + PKi[3 * q + 1] * eg[1] + PKi[3 * q + 2] * eg[2]);
+    }
     if (fast && si != TLPD_FALLBACK) {
       /* sum form with 002 hourglass control, both ends correspondence (or detached):
        * t = (A G_i + B G_j) X + (A C_i + B C_j) Y, G = P K^-1 - C F (pass 0) */
@@ -817,9 +904,13 @@ static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej
         /* columns of G_j: slots 0-3 and 3-6 (lane 3 unused), 6-8 */
         f += TLPD_LD4(Gj) * X[0] + TLPD_LD4(Gj + 3) * X[1] + TLPD_LD3(Gj + 6) * X[2] + cy * Y;
       }
-      const ej_real f0 = f[0], f1 = f[1], f2 = f[2];
+      const ej_real f0 = f[0] + gc[0], f1 = f[1] + gc[1], f2 = f[2] + gc[2];
       const ej_real iv = vol0[i] / m[i];
       a[3 * i] += f0 * iv, a[3 * i + 1] += f1 * iv, a[3 * i + 2] += f2 * iv;
+      if (gfc) { /* the correction's power into e (zero where gc = 0) */
+        const ej_real pc = (gc[0] * v[3 * i] + gc[1] * v[3 * i + 1] + gc[2] * v[3 * i + 2]) * iv;
+        e_dot[i] -= pc;
+      }
       s->aint[3 * i] = f0 * iv, s->aint[3 * i + 1] = f1 * iv, s->aint[3 * i + 2] = f2 * iv;
       if (s->area[i] > 0 && ptr != 0) {
         const ej_real fa = -ptr * s->area[i] / m[i];
@@ -900,6 +991,8 @@ static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej
       }
       f0 += t[0], f1 += t[1], f2 += t[2];
     }
+    f0 += gc[0], f1 += gc[1], f2 += gc[2];
+    ex -= gc[0] * vi0 + gc[1] * vi1 + gc[2] * vi2;
     /* force densities -> accelerations: rho0_i = m_i / vol0_i */
     const ej_real iv = vol0[i] / m[i];
     a[3 * i] += f0 * iv, a[3 * i + 1] += f1 * iv, a[3 * i + 2] += f2 * iv;
