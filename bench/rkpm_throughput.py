@@ -18,7 +18,12 @@ whatever the machine's load. Measured 2026-11-21 (load average ~18 on 2 cores, s
 rates mean anything), --n-side 24 --steps 6: msnni 3.5e4 (1 thread) and 2.8e4 (2 threads) per
 CPU-second; dni 4.1e5 (1 thread). After the face-group sweeps (plugins/methods/rkpm/README.md,
 "Cost"; load 5-8, --repeats 3): msnni 4.3e4-4.6e4 (1 thread) vs 3.5e4-3.9e4 for the previous code
-in the same sessions (ratio ~1.2), 3.7e4 (2 threads). The 58^3 default was not run with msnni (about 5 CPU-s per step). Reported
+in the same sessions (ratio ~1.2), 3.7e4 (2 threads). The 58^3 default was not run with msnni (about 5 CPU-s per step).
+With msnni_stress: material (the sub-box stresses through the material, 2026-11-21; load ~11),
+--n-side 20 --steps 12 --repeats 2: 3.96e4 (1 thread) and 3.33e4 (2 threads) per CPU-second, vs
+3.93e4 and 3.35e4 for HEAD in the same session. The CPU-time ratio is 1.01: no cost on this
+scene. Profile (perf, 20^3, 16 steps): force sweep 36 %, material pass (interpolation sweep)
+28 %, moment sweep 28 %, sub-box material calls 1.2 %. Target FAIL (about 6x short). Reported
 PASS/FAIL, never the exit status (a benchmark, not a test).
 """
 import argparse

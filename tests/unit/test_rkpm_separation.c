@@ -68,8 +68,9 @@ START_TEST(test_perforation)
 {
   rb_run R;
   /* cfl 0.2: with MSNNI (the rkpm default) the time-integration error of this violent event is
-   * larger than with DNI: balance 2.2 % (cfl 0.3), 1.1 % (0.25), 0.25 % (0.2), 0.16 % (0.15);
-   * DNI 0.31 % at 0.3. */
+   * larger than with DNI: balance 2.2 % (cfl 0.3), 1.1 % (0.25), 0.25 % (0.2), 0.16 % (0.15)
+   * with the elastic sub-box stress; 0.084 % at 0.2 with msnni_stress: material (the default
+   * since 2026-11-21); DNI 0.31 % at 0.3. */
   rb_open(&R, "ejecta: 1\ndimension: 2\ntime: {end: 150 us, cfl: 0.2}\noutput: {file: rb.h5, fields: [v]}\n"
               "materials:\n  soil: {model: dp_damage, rho0: 2000, E: 200 MPa, nu: 0.2, beta: 0.16, A: 20 kPa,"
               " H_alpha: 100 MPa, c2: 0.05, c1: 1.0}\n  steel: {rho0: 7800}\n"

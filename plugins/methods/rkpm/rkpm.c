@@ -51,6 +51,8 @@ enum { RK_SEMI_LAGRANGIAN = 0, RK_LAGRANGIAN = 1 };
 static const char *const rk_formulations[] = {"semi_lagrangian", "lagrangian", NULL};
 enum { RK_MSNNI = 0, RK_SCNI_BOX = 1, RK_DNI = 2 };
 static const char *const rk_integrations[] = {"msnni", "scni_box", "dni", NULL};
+enum { RK_STAB_MATERIAL = 0, RK_STAB_ELASTIC = 1 };
+static const char *const rk_stab_stress[] = {"material", "elastic", NULL};
 
 #define RK_MAX_HIST 32
 #define RK_NF_MAX 36 /* face quadrature points of a nodal box (3D: 24 outer + 12 inner) */
@@ -67,6 +69,7 @@ typedef struct rk_config {
   int formulation;
   int integration;
   ej_real msnni_w;
+  int msnni_stress;
   ej_real stabilization;
   ej_real rcond_min;
 } rk_config;
@@ -85,6 +88,12 @@ static const ej_param rk_params[] = {
     EJ_PARAM_REAL(rk_config, msnni_w, "1", 0.5, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Weight w of the MSNNI sub-box stabilisation (003 Eq 46, w in [0, 1]): the sub-box "
                   "stabilisation stress grows by w E : (strain increment of the sub-box - of the box)."),
+    EJ_PARAM_ENUM(rk_config, msnni_stress, rk_stab_stress, "material",
+                  "How the MSNNI sub-box stress is updated (003 Eq 46 applied incrementally): material = each "
+                  "sub-box stress goes through the set's own strength model with the sub-box strain rate, "
+                  "and the stabilisation stress is w (sub-box stress - node stress), so it yields with the "
+                  "material; elastic = w E : (sub-box - box strain increment) with the initial elastic "
+                  "moduli, no yield limit (Lagrangian formulation and EOS-only fluids: always elastic)."),
     EJ_PARAM_REAL(rk_config, stabilization, "1", 0.1, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Coefficient of the pairwise stabilisation of nodal integration: damps the part of the "
                   "relative velocity of two nodes that the nodal velocity gradients do not explain "
@@ -109,6 +118,7 @@ typedef struct rk_state {
    * one coordinate 0 and the others +-1 (inner faces between two sub-boxes). */
   bool box;          /* integration msnni or scni_box */
   bool sub;          /* msnni with w > 0: sub-box stabilisation stresses */
+  bool smat;         /* sub-box stresses through the strength model (msnni_stress material) */
   int nf, ns, nss;   /* face points, sub-boxes, TENSOR9 fields holding the sub-box stresses */
   ej_real q[RK_NF_MAX][3];
   int fnd[RK_NF_MAX];          /* axis of the face normal */
@@ -405,6 +415,7 @@ static ej_err rk_create(const void *config, ej_set *set, const ej_model *model, 
   s->set_name = ej_set_name(set);
   s->box = cfg->integration != RK_DNI;
   s->sub = cfg->integration == RK_MSNNI && cfg->msnni_w > 0.0;
+  s->smat = s->sub && mat && !s->lagrangian && cfg->msnni_stress == RK_STAB_MATERIAL;
   rk_faces_init(s);
   if (s->box && s->nf != (dim == 3 ? 36 : dim == 2 ? 12 : 3)) {
     ej_free(s);
@@ -1026,18 +1037,23 @@ static inline void rk_box_close(const rk_state *s, ej_idx i, ej_idx kb, const ej
     const ej_real lam = K - 2.0 * Gs / 3.0;
     ej_real ps = 0.0;
     for (int xi = 0; xi < ns; ++xi) {
-      if (!s->lagrangian) ej_s6_rotate(ss[xi], Q, ss[xi]);
-      ej_real de[6], dp[6];
-      ej_m3_sym(de, dGm + (size_t)(kb * RK_NS_MAX + xi) * 9);
+      ej_real dp[6];
       ej_m3_sym(dp, dGp + (size_t)(kb * RK_NS_MAX + xi) * 9);
-      const ej_real tr = de[0] + de[1] + de[2];
-      for (int k = 0; k < 6; ++k) ss[xi][k] += w * dt * (2.0 * Gs * de[k] + (k < 3 ? lam * tr : 0.0));
+      if (s->smat) { /* stored: D_xi = sub-box stress - node stress (rk_subbox_material) */
+        for (int k = 0; k < 6; ++k) ss[xi][k] *= w;
+      } else {
+        if (!s->lagrangian) ej_s6_rotate(ss[xi], Q, ss[xi]);
+        ej_real de[6];
+        ej_m3_sym(de, dGm + (size_t)(kb * RK_NS_MAX + xi) * 9);
+        const ej_real tr = de[0] + de[1] + de[2];
+        for (int k = 0; k < 6; ++k) ss[xi][k] += w * dt * (2.0 * Gs * de[k] + (k < 3 ? lam * tr : 0.0));
+      }
       ps += ej_s6_ddot(ss[xi], dp);
       ej_real sx[9];
       ej_s6_to_m3(sx, ss[xi]);
       for (int q = 0; q < 9; ++q) sm[q] += sx[q] / ns;
     }
-    rk_ss_put(ssf, i, ns, ss);
+    if (!s->smat) rk_ss_put(ssf, i, ns, ss);
     ps *= V / ns / m;
     *e_dot += ps;
     *w_dot += ps;
@@ -1068,6 +1084,80 @@ static inline void rk_box_close(const rk_state *s, ej_idx i, ej_idx kb, const ej
     }
     for (int c = 0; c < 3; ++c) T[c * RK_NF_MAX + s->gpos[f]] = tf[c]; /* padded position */
   }
+}
+
+/* MSNNI sub-box stresses through the strength model (msnni_stress: material, semi-Lagrangian).
+ * 003 Eq 46 adds w sum_xi V_xi (Bbar_I(xi) - Bbar_I(L))^T E (eps_xi - eps_L); applied
+ * incrementally (digest 003 section 1.7) with a fixed elastic E this is a spring that no yield
+ * surface limits: in a flowing granular bed it stores a large part of the impact energy and
+ * gives it back (validation/sphere_drop: the ball was thrown out). Here each sub-box xi carries
+ * its own stress sigma_xi, updated by the set's strength model from the rotated
+ *   sigma_xi^n = Q (sigma_L^n + D_xi^n) Q^T
+ * with the sub-box rate of deformation d_xi = sym(G_L + (G_xi - G_L)) (mid-step velocities),
+ * the node's density, energy, EOS pressure and copies of its history variables at t_n;
+ * D_xi^n+1 = sigma_xi^n+1 - sigma_L^n+1 is stored (fields rk_ss*, unweighted) and the
+ * stabilisation stress is sigma_s,xi = w D_xi. For a linear elastic material this is exactly the
+ * incremental Eq 46 (sigma_xi - sigma_L grows by E : (d_xi - d_L) dt); for a yielding material the
+ * sub-box stress stays on the yield surface, so the stabilisation is bounded by the strength and
+ * dissipates in plastic flow (its power goes to w_hg as before: the energy budget is exact).
+ * Approximation: the sub-boxes share the node's hardening/damage history (not stored per
+ * sub-box: the core has 64 fields per set). */
+#define RK_SB_NODES 8 /* nodes per sub-box material batch (stack scratch) */
+static ej_err rk_subbox_material(const rk_state *s, ej_range rb, const ej_real *sgn, const ej_real *sg,
+                                 const ej_real *Gm, const ej_real *dGm, const ej_real *Qs, ej_real *const *ssf,
+                                 const ej_real *rho, const ej_real *e, const ej_real *p,
+                                 const ej_real hsn[RK_MAX_HIST][RK_BLOCK], int nh,
+                                 const int32_t *failed, const int32_t *fbs, ej_real dt)
+{
+  enum { NP = RK_SB_NODES * RK_NS_MAX };
+  const int ns = s->ns;
+  for (ej_idx n0 = rb.begin; n0 < rb.end; n0 += RK_SB_NODES) {
+    const ej_idx n1 = n0 + RK_SB_NODES < rb.end ? n0 + RK_SB_NODES : rb.end;
+    ej_real st[NP * 6], dx[NP * 6], rh[NP], ee[NP], pp[NP], cc[NP];
+    ej_real hv[RK_MAX_HIST][NP];
+    ej_real *hp[RK_MAX_HIST];
+    int32_t fl[NP];
+    for (int k = 0; k < nh; ++k) hp[k] = hv[k];
+    for (ej_idx i = n0; i < n1; ++i) {
+      const ej_idx kb = i - rb.begin;
+      ej_real ss[RK_NS_MAX][6];
+      rk_ss_get(ssf, i, ns, ss);
+      for (int xi = 0; xi < ns; ++xi) {
+        const int j = (int)(i - n0) * ns + xi;
+        ej_real t[6], g[9];
+        ej_s6_rotate(t, Qs + 9 * kb, ss[xi]);
+        for (int k = 0; k < 6; ++k) st[6 * j + k] = sgn[6 * kb + k] + t[k];
+        const ej_real *dg = dGm + (size_t)(kb * RK_NS_MAX + xi) * 9;
+        for (int q = 0; q < 9; ++q) g[q] = Gm[9 * kb + q] + dg[q];
+        ej_m3_sym(dx + 6 * j, g);
+        rh[j] = rho[i], ee[j] = e[i], pp[j] = p[i], fl[j] = failed[i];
+        for (int k = 0; k < nh; ++k) hv[k][j] = hsn[k][kb]; /* node history at t_n */
+      }
+    }
+    ej_mat_batch b = {.n = (n1 - n0) * ns,
+                      .dt = dt,
+                      .rho = rh,
+                      .e = ee,
+                      .d = dx,
+                      .F = NULL,
+                      .p = s->eos ? pp : NULL,
+                      .stress = st,
+                      .hist = hp,
+                      .c = cc,
+                      .w_plastic = NULL,
+                      .failed = fl};
+    EJ_TRY(ej_material_update(s->mat, &b));
+    for (ej_idx i = n0; i < n1; ++i) {
+      ej_real ss[RK_NS_MAX][6];
+      const bool dead = failed[i] || fbs[i];
+      for (int xi = 0; xi < ns; ++xi) {
+        const int j = (int)(i - n0) * ns + xi;
+        for (int k = 0; k < 6; ++k) ss[xi][k] = dead ? 0.0 : st[6 * j + k] - sg[6 * i + k];
+      }
+      rk_ss_put(ssf, i, ns, ss);
+    }
+  }
+  return EJ_OK;
 }
 
 static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
@@ -1142,7 +1232,7 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
       }
     }
     /* Spatial velocity gradients: L = G (semi-Lagrangian) or dF/dt F^-1 (Lagrangian). */
-    ej_real Lp[9 * RK_BLOCK];
+    ej_real Lp[9 * RK_BLOCK], sgn[6 * RK_BLOCK], hsn[RK_MAX_HIST][RK_BLOCK];
     for (ej_idx i = rb.begin; i < rb.end; ++i) {
       const ej_idx k = i - rb.begin;
       ej_real *lp = Lp + 9 * k, *lm = Gm + 9 * k;
@@ -1162,6 +1252,7 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
       ej_m3_skew(w, lm);
       if (!ej_hughes_winget(Q, w, dt)) return rk_bad(s, set, i, "Hughes-Winget factor, spin norm", ej_m3_norm(w));
       ej_s6_rotate(sg + 6 * i, Q, sg + 6 * i);
+      for (int q = 0; q < 6; ++q) sgn[6 * k + q] = sg[6 * i + q];
       ej_m3_copy(Qs + 9 * k, Q);
       ej_m3_sym(dd + 6 * i, lm);
     }
@@ -1183,6 +1274,9 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
                         .w_plastic = wpl_inc + rb.begin,
                         .failed = failed + rb.begin};
       for (ej_idx k = 0; k < nb; ++k) wpl_inc[rb.begin + k] = 0.0;
+      if (s->smat) /* history at t_n: the start state of the sub-box updates */
+        for (int k = 0; k < nh; ++k)
+          for (ej_idx q = 0; q < nb; ++q) hsn[k][q] = hist[k][rb.begin + q];
       /* A point that failed earlier stays failed: the material is told by the flag. */
       EJ_TRY(ej_material_update(s->mat, &b));
       for (ej_idx k = 0; k < nb; ++k) {
@@ -1221,9 +1315,13 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
         for (int q = 0; q < 9; ++q) P[9 * i + q] *= J;
       }
       if (!isfinite(c[i])) return rk_bad(s, set, i, "sound speed c", c[i]);
-      if (s->box) rk_box_close(s, i, i - rb.begin, t, s->lagrangian ? P + 9 * i : NULL, A.gv + 9 * i, dGp, dGm,
-                               Qs + 9 * (i - rb.begin), ssf, m[i], rho[i], vol0[i], c[i], id[i], fbs[i] || failed[i],
-                               dt, wst, e_dot + i, w_dot + i);
+    }
+    if (s->smat)
+      EJ_TRY(rk_subbox_material(s, rb, sgn, sg, Gm, dGm, Qs, ssf, rho, e, p, hsn, nh, failed, fbs, dt));
+    for (ej_idx i = rb.begin; i < rb.end && s->box; ++i) {
+      rk_box_close(s, i, i - rb.begin, sg + 6 * i, s->lagrangian ? P + 9 * i : NULL, A.gv + 9 * i, dGp, dGm,
+                   Qs + 9 * (i - rb.begin), ssf, m[i], rho[i], vol0[i], c[i], id[i], fbs[i] || failed[i], dt, wst,
+                   e_dot + i, w_dot + i);
     }
   }
   return EJ_OK;
