@@ -1,8 +1,10 @@
 #!/usr/bin/python3
 """Sand column collapse, aspect ratio a = h_i/r_i = 0.5 (r_i = 200 mm, h_i = 100 mm), 3D quarter
 model on a frictional (no-slip) floor of Adami dummy particles (interaction sph_wall).
-Scene: examples/sand_collapse.yaml (SPH solid, Wendland C2, h = 1.5 dx, alpha 1, beta 10 as
-digest 001; sand of 001 Table 5 = examples/materials/sand_001.yaml).
+Scene: examples/sand_collapse.yaml (SPH solid, Wendland C2, h = 1.5 dx, beta 10 as digest 001,
+Monaghan alpha = 4 mm / dx so that alpha h, hence the artificial viscosity ~ alpha c h / 10, is 001's
+(alpha 1 at dx = 4 mm) at every spacing; sand of 001 Table 5, the DP cone exactly 001's plane-strain
+match).
 Reference: experiment of Lube et al., J. Fluid Mech. 508 (2004) 175 as quoted by Chen et al. 2021
 Table 6 (digest 001 §3.4): run-out radius r_inf/r_i = 1.62, final height h_inf/r_i = 0.50
 (Lube's a < 1.7 scaling r_inf/r_i = 1 + 1.24 a gives the same 1.62). Chen et al. reached
@@ -27,6 +29,7 @@ H_I = 0.1
 REF = {"run_out": 1.62, "height": 0.50}
 PAPER = {"drucker_prager": {"run_out": 1.67, "height": 0.50}, "soil_evp": {"run_out": 1.56, "height": 0.51}}
 TOL = 0.03
+ALPHA_H001 = 0.004  # 001: alpha = 1 at dx = 4 mm (Monaghan alpha times the spacing, m)
 MATERIAL = {"drucker_prager": "sand_dp", "soil_evp": "sand_evp"}
 
 
@@ -53,7 +56,7 @@ def measure(x, dx, x0):
     max r0 + dx/2 = 1.042 r_i), so the initial front is taken as r_i and h_i exactly."""
     r, z, iso = fronts(x, dx)
     r0, z0, _ = fronts(x0, dx)
-    return {"run_out": 1 + (r - r0) / R_I, "height": (H_I + z - z0) / R_I, "isolated": iso}
+    return {"run_out": 1 + (r - r0) / R_I, "height": (H_I + z - z0) / R_I, "isolated": iso, "r_max": r}
 
 
 def history(path, dx, x0):
@@ -73,7 +76,8 @@ def main():
     ap.add_argument("--models", nargs="+", default=["drucker_prager", "soil_evp"])
     ap.add_argument("--end", type=float, default=0.6, help="end time (s)")
     ap.add_argument("--threads", type=int, default=1)
-    ap.add_argument("--alpha", type=float, default=None, help="Monaghan alpha (scene: 1, as 001)")
+    ap.add_argument("--alpha", type=float, default=None,
+                    help="fixed Monaghan alpha at every spacing (default: alpha = 4 mm / dx, 001's alpha h)")
     ap.add_argument("--reuse", action="store_true")
     ap.add_argument("--only-existing", action="store_true", help="report only the runs already in --out")
     args = ap.parse_args()
@@ -92,8 +96,11 @@ def main():
             text = text.replace("-60 mm", f"{-3 * dx * 1e3:g} mm").replace("height: 60 mm", f"height: {3 * dx * 1e3:g} mm")
             text = text.replace("material: sand_dp", f"material: {MATERIAL[model]}")
             text = text.replace("end: 0.6", f"end: {args.end:g}")
-            if args.alpha is not None:  # Monaghan alpha of the sand and of its wall pairs
-                text = text.replace("alpha: 1,", f"alpha: {args.alpha:g},").replace("alpha: 1\n", f"alpha: {args.alpha:g}\n")
+            # Monaghan alpha of the sand and of its wall pairs: by default alpha h = 001's (alpha 1 at
+            # dx = 4 mm), so the artificial viscosity ~ alpha c h / 10 is the same at every spacing
+            alpha = args.alpha if args.alpha is not None else ALPHA_H001 / dx
+            text = text.replace("alpha: 0.2,", f"alpha: {alpha:.6g},").replace("alpha: 0.2\n", f"alpha: {alpha:.6g}\n")
+            if args.alpha is not None:
                 name += f"_alpha{args.alpha:g}"
             if args.only_existing and not os.path.exists(os.path.join(args.out, name + ".h5")):
                 print(f"  {model:15s} dx {dx * 1e3:5.1f} mm: not run (--only-existing)")
@@ -110,6 +117,13 @@ def main():
                   f"{e['height'] * 100:+.1f} %; paper {PAPER[model]['height']}), isolated {m['isolated']}")
             if len(t) > 2:
                 print(f"    front r/r_i at t = " + ", ".join(f"{a:.2f}: {b:.3f}" for a, b in zip(t[::2], ro[::2])))
+            # at rest? kinetic energy at the end against its peak, front speed over the last frame interval
+            en = common.read_series(path, "energy")
+            ke = en["kinetic"]
+            print(f"    at rest: kinetic energy at the end {ke[-1]:.3g} J = {ke[-1] / ke.max():.2e} of its peak "
+                  f"{ke.max():.3g} J (t = {en['t'][int(ke.argmax())]:.3f} s); front speed over the last "
+                  f"{t[-1] - t[-2]:.2f} s: {(ro[-1] - ro[-2]) * R_I / (t[-1] - t[-2]) * 1e3:.1f} mm/s; "
+                  f"edge measure (max r + dx/2)/r_i = {(m['r_max'] + dx / 2) / R_I:.3f}")
             r = np.hypot(d["x"][:, 0], d["x"][:, 1])
             lab = f"{model}, dx {dx * 1e3:g} mm" + (f", alpha {args.alpha:g}" if args.alpha is not None else "")
             ax.plot(r / R_I, d["x"][:, 2] / R_I, ".", ms=2, label=lab)

@@ -56,6 +56,7 @@ typedef struct sw_config {
   ej_real gravity[3];
   ej_real wall_acceleration[3];
   ej_real alpha, beta, eta;
+  bool wall_gradient;
 } sw_config;
 
 static const char *const sw_kernels[] = {"cubic_spline", "wendland_c2", NULL};
@@ -86,6 +87,11 @@ static const ej_param sw_params[] = {
                   "Monaghan artificial viscosity of the wall pairs, quadratic coefficient (use the SPH set's)."),
     EJ_PARAM_REAL(sw_config, eta, "1", 0.1, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX | EJ_PF_MIN_OPEN,
                   "Viscosity singularity guard: eta^2 h^2 is added to r^2."),
+    EJ_PARAM_BOOL(sw_config, wall_gradient, 1,
+                  "Solids: the wall pairs enter the velocity gradient of the SPH particles next to the wall, "
+                  "L_i += sum_w vol0_w (v_w - v_i) (x) grad_i W (free slip: normal part only), applied by a second "
+                  "material update of those particles after the step (without it a solid sees no elastic "
+                  "compression or shear from the wall)."),
     {0}};
 
 typedef struct sw_state {
@@ -93,6 +99,8 @@ typedef struct sw_state {
   const ej_set *fluid, *wall;
   ej_idx n_fluid, n_wall;
   const ej_eos *eos; /* EOS inverse for the wall density (NULL: Shepard or rest) */
+  const ej_material *mat; /* strength model of a solid SPH set (wall velocity gradient), or NULL */
+  bool mat_eos;           /* the solid also has an EOS: its material update reads p */
   ej_real rho_rest;
   bool solid;
   /* per wall particle (owned; the wall set has no ghosts) */
@@ -136,6 +144,10 @@ static ej_err sw_create(const void *config, ej_set *a, ej_set *b, void **state)
   s->rho_rest = model ? ej_model_rho0(model) : 0;
   const ej_eos *eos = model ? ej_model_eos(model) : NULL;
   if (c->density == SW_RHO_AUTO && !s->solid) s->eos = eos;
+  if (s->solid && c->wall_gradient && model) {
+    s->mat = ej_model_material(model);
+    s->mat_eos = eos != NULL;
+  }
   const size_t nw = (size_t)s->n_wall + 1, nf = (size_t)s->n_fluid + 1;
   s->w_sig = ej_calloc(6 * nw, sizeof(ej_real));
   s->w_rho = ej_calloc(nw, sizeof(ej_real));
@@ -260,6 +272,41 @@ static ej_err sw_wall_pass(sw_state *s, ej_set *wall, ej_set *fl, const ej_nbr *
   return EJ_OK;
 }
 
+/* The wall's share of the velocity gradient of solid particle i (sph.c computes L_i from the set's
+ * own particles, before interactions run): a second material update of i with the rate of
+ * deformation d_w = sym(L_w) over the step (operator split; the wall's spin is not applied). It
+ * runs after the step's forces, so the stress it adds acts from the next step on. Free slip keeps
+ * only the normal part n (n . L_w n) n (x) n of the wall's rate (no shear from a frictionless wall).
+ * The energy equation already holds sigma_i : L_w / rho_i (the de term of the wall pairs). */
+static ej_err sw_wall_strain(const sw_state *s, ej_set *fl, ej_idx i, ej_real Lw[9], const ej_real nrm[3])
+{
+  const ej_real dt = ej_set_dt(fl);
+  if (!(dt > 0)) return EJ_OK;
+  if (s->cfg.slip == SW_FREE_SLIP) {
+    const ej_real nl = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+    if (!(nl > 0)) return EJ_OK;
+    const ej_real n[3] = {nrm[0] / nl, nrm[1] / nl, nrm[2] / nl};
+    ej_real Ln[3];
+    ej_m3_apply(Ln, Lw, n);
+    const ej_real lnn = n[0] * Ln[0] + n[1] * Ln[1] + n[2] * Ln[2];
+    for (int a = 0; a < 3; ++a)
+      for (int q = 0; q < 3; ++q) Lw[3 * a + q] = lnn * n[a] * n[q];
+  }
+  ej_real d6[6], c_out = 0, wp = 0;
+  ej_m3_sym(d6, Lw);
+  ej_real *rho = ej_set_field(fl, "rho"), *e = ej_set_field(fl, "e"), *stress = ej_set_field(fl, "stress");
+  ej_real *p = ej_set_field(fl, "p");
+  int32_t *failed = ej_set_field_int(fl, "failed");
+  ej_real *hist_base[16], *hist[16];
+  const int nh = ej_set_hist(fl, hist_base, 16);
+  EJ_ENSURE(nh <= 16, EJ_ERR_INTERNAL, "sph_wall: more than 16 history variables");
+  for (int k = 0; k < nh; ++k) hist[k] = hist_base[k] + i;
+  ej_mat_batch b = {.n = 1, .dt = dt, .rho = rho + i, .e = e + i, .d = d6, .F = NULL,
+                    .p = (s->mat_eos && p) ? p + i : NULL, .stress = stress + 6 * (size_t)i, .hist = hist,
+                    .c = &c_out, .w_plastic = &wp, .failed = failed ? failed + i : NULL};
+  return ej_material_update(s->mat, &b);
+}
+
 /* Pass 1 over SPH particles r: the wall pair terms. */
 static ej_err sw_fluid_pass(sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr *fw, ej_range r)
 {
@@ -278,6 +325,8 @@ static ej_err sw_fluid_pass(sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr 
     const ej_real irho2 = 1.0 / (rho_i * rho_i);
     const ej_real dwfac = sigma_k * sph_inv_pow(ih, dim + 1);
     ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0, dt = INFINITY;
+    ej_real Lw[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, nrm[3] = {0, 0, 0};
+    int n_wall = 0;
     for (ej_off k = fw->off[i]; k < fw->off[i + 1]; ++k) {
       const ej_idx w = fw->idx[k];
       const ej_real dx[3] = {xw[3 * w] - xf[3 * i], xw[3 * w + 1] - xf[3 * i + 1], xw[3 * w + 2] - xf[3 * i + 2]};
@@ -314,9 +363,16 @@ static ej_err sw_fluid_pass(sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr 
        * viscosity does no net work: with (v_i - v_w,visc) it would double-count for no-slip */
       de += m_w * pi * (dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2]);
       drho += volw[w] * (dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2]);
+      /* the wall's share of the velocity gradient, with the same wall velocity v_w as the
+       * continuity and energy terms: L_i += vol0_w (v_w - v_i) (x) grad_i W */
+      for (int a = 0; a < 3; ++a)
+        for (int q = 0; q < 3; ++q) Lw[3 * a + q] -= volw[w] * dv[a] * g[q];
+      for (int q = 0; q < 3; ++q) nrm[q] += dx[q] * dwdr; /* dW/dr < 0, x_w - x_i: away from the wall */
+      ++n_wall;
       const ej_real wsp = c_i + 2.0 * sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
       if (wsp > 0 && h / wsp < dt) dt = h / wsp;
     }
+    if (s->mat && n_wall > 0) EJ_TRY(sw_wall_strain(s, fl, i, Lw, nrm));
     for (int q = 0; q < 3; ++q) af[3 * i + q] += acc[q];
     if (edot) edot[i] += de;
     if (rdot) rdot[i] += rho_i * drho;
