@@ -1270,6 +1270,31 @@ static inline SPH_ALWAYS_INLINE ej_real sph_solid_kdf(const int kernel, const in
  * entry: 96 entries keep the buffers at 24 KiB, in L1). */
 #define SPH_SOLID_BLK 96
 
+/* Compaction gather shared by the two solid pair loops: from list entry *k on, up to
+ * SPH_SOLID_BLK entries inside 2 hbar (and, with drop_self, not coincident) go to the buffers
+ * bx, by, bz, bh, jb; the slot of a skin entry is overwritten by the next one (branch-free).
+ * Returns the count and advances *k past the entries read. */
+static inline SPH_ALWAYS_INLINE int sph_solid_gather(const int dim, const bool drop_self, const ej_real *restrict x,
+                                                     const ej_real *restrict h, const ej_idx *restrict idx,
+                                                     ej_off *k, const ej_off kend, const ej_real xi0,
+                                                     const ej_real xi1, const ej_real xi2, const ej_real hi,
+                                                     ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
+                                                     ej_real *restrict bh, ej_idx *restrict jb)
+{
+  int nk = 0;
+  ej_off kk = *k;
+  for (; kk < kend && nk < SPH_SOLID_BLK; ++kk) {
+    const ej_idx j = idx[kk];
+    const ej_real xj0 = x[3 * j], xj1 = dim > 1 ? x[3 * j + 1] : 0.0, xj2 = dim > 2 ? x[3 * j + 2] : 0.0;
+    const ej_real hj = h[j], hb = 0.5 * (hi + hj);
+    const ej_real d0 = xi0 - xj0, d1 = xi1 - xj1, d2 = xi2 - xj2, r2 = d0 * d0 + d1 * d1 + d2 * d2;
+    bx[nk] = xj0, by[nk] = xj1, bz[nk] = xj2, bh[nk] = hj, jb[nk] = j;
+    nk += r2 < 4.0 * hb * hb && (!drop_self || r2 > 0.0);
+  }
+  *k = kk;
+  return nk;
+}
+
 /* Velocity gradient of particle i (3x3 row-major, zero outside the dim x dim block), blocked like
  * sph_pairs_blocked: the neighbours' data are gathered into contiguous buffers (a scalar loop),
  * then a vectorised loop sums A_ac = sum_j V_j (v_j - v_i)_a (grad_i W_ij)_c; with correction
@@ -1296,17 +1321,8 @@ static inline SPH_ALWAYS_INLINE void sph_solid_velgrad_row(const int kernel, con
   ej_idx jb[SPH_SOLID_BLK];
   const ej_off kend = off[i + 1];
   for (ej_off k = off[i]; k < kend;) {
-    /* compaction: only the entries inside 2 hbar (and not coincident) enter the buffers; the slot
-     * of a skin entry is overwritten by the next one (branch-free) */
-    int nk = 0;
-    for (; k < kend && nk < SPH_SOLID_BLK; ++k) {
-      const ej_idx j = idx[k];
-      const ej_real xj0 = x[3 * j], xj1 = dim > 1 ? x[3 * j + 1] : 0.0, xj2 = dim > 2 ? x[3 * j + 2] : 0.0;
-      const ej_real hj = h[j], hb = 0.5 * (hi + hj);
-      const ej_real d0 = xi0 - xj0, d1 = xi1 - xj1, d2 = xi2 - xj2, r2 = d0 * d0 + d1 * d1 + d2 * d2;
-      bx[nk] = xj0, by[nk] = xj1, bz[nk] = xj2, bh[nk] = hj, jb[nk] = j;
-      nk += r2 < 4.0 * hb * hb && r2 > 0.0;
-    }
+    /* compaction: only the entries inside 2 hbar (and not coincident) enter the buffers */
+    const int nk = sph_solid_gather(dim, true, x, h, idx, &k, kend, xi0, xi1, xi2, hi, bx, by, bz, bh, jb);
     for (int q = 0; q < nk; ++q) {
       const ej_idx j = jb[q];
       bvx[q] = v[3 * j], bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0, bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
@@ -1517,16 +1533,8 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
     ej_real ax = 0.0, ay = 0.0, az = 0.0, de = 0.0, dw = 0.0, mumax = 0.0, xs0 = 0.0, xs1 = 0.0, xs2 = 0.0;
     const ej_off kend = off[i + 1];
     for (ej_off k = off[i]; k < kend;) {
-      /* compaction: only the entries inside 2 hbar enter the buffers (as in sph_solid_velgrad_row) */
-      int nk = 0;
-      for (; k < kend && nk < SPH_SOLID_BLK; ++k) {
-        const ej_idx j = idx[k];
-        const ej_real xj0 = x[3 * j], xj1 = dim > 1 ? x[3 * j + 1] : 0.0, xj2 = dim > 2 ? x[3 * j + 2] : 0.0;
-        const ej_real hj = h[j], hb = 0.5 * (hi + hj);
-        const ej_real d0 = xi0 - xj0, d1 = xi1 - xj1, d2 = xi2 - xj2, r2 = d0 * d0 + d1 * d1 + d2 * d2;
-        bx[nk] = xj0, by[nk] = xj1, bz[nk] = xj2, bh[nk] = hj, jb[nk] = j;
-        nk += r2 < 4.0 * hb * hb;
-      }
+      /* compaction: only the entries inside 2 hbar enter the buffers */
+      const int nk = sph_solid_gather(dim, false, x, h, idx, &k, kend, xi0, xi1, xi2, hi, bx, by, bz, bh, jb);
       for (int q = 0; q < nk; ++q) {
         const ej_idx j = jb[q];
         bvx[q] = v[3 * j], bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0, bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
