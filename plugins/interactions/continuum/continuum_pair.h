@@ -64,7 +64,10 @@ static inline ej_err cpl_bind(cpl_side *s, ej_set *set, const char *who, ej_real
   s->dim = ej_set_dim(set);
   s->x = ej_set_field(set, "x");
   s->v = ej_set_field(set, "v");
-  s->m = ej_set_field(set, "m");
+  /* a set that publishes a line mass (sph geometry: spherical) couples with it: the 1D sums of a
+   * spherically symmetric set weigh neighbours by m/(4 pi r^2), not by the shell mass m */
+  s->m = ej_set_field(set, "m_line");
+  if (!s->m) s->m = ej_set_field(set, "m");
   s->vol0 = ej_set_field(set, "vol0");
   s->a = ej_set_field(set, "a");
   s->rho = ej_set_field(set, "rho");
