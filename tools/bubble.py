@@ -10,7 +10,9 @@ soil particle belongs to the bubble when it is higher than z_s + dx/2 (dx the in
 the surface layer). Bubble height = max z over the bubble particles within 2 dx of the charge
 axis - z_s. Bubble width = twice the largest
 distance from the charge axis among bubble particles whose height is below half the bubble height
-(the width of the dome at its base half). The scene's charge axis is the z axis through x = y = 0
+(the width of the dome at its base half). With --min-nbrs N only soil particles with at least N
+other soil particles within 1.5 dx count: the coherent dome without the isolated fragments that
+fly ahead of it (validation/buried_charge uses N = 3). The scene's charge axis is the z axis through x = y = 0
 (a quarter model with symmetry planes x = 0 and y = 0).
 
 Writes a CSV (t_ms, height_mm, width_mm), a PNG of both against time and a PNG of vertical cuts
@@ -41,8 +43,18 @@ def spacing(x0):
     return float(np.median(d))
 
 
-def measure(x, z_s, dx):
+def measure(x, z_s, dx, min_nbrs=0):
+    """Height and width of the bubble. min_nbrs > 0: only soil particles with at least min_nbrs
+    other soil particles within 1.5 dx count (the coherent dome; isolated fragments thrown off
+    ahead of it, which a coarse run makes, do not)."""
     up = x[:, 2] > z_s + 0.5 * dx
+    if min_nbrs > 0 and up.any():
+        from scipy.spatial import cKDTree
+
+        cnt = cKDTree(x).query_ball_point(x[up], r=1.5 * dx, return_length=True) - 1
+        keep = np.zeros_like(up)
+        keep[np.flatnonzero(up)[cnt >= min_nbrs]] = True
+        up = keep
     if not up.any():
         return 0.0, 0.0
     # height on the charge axis (within 2 spacings of it), so that a single fast fragment off
@@ -64,6 +76,9 @@ def main():
     ap.add_argument("--png", default=None, help="PNG of height and width (default OUT_bubble.png)")
     ap.add_argument("--cuts", default=None, help="PNG of cuts (default OUT_cuts.png)")
     ap.add_argument("--times", default=None, help="comma-separated times in ms for the cuts (default 4 frames)")
+    ap.add_argument("--min-nbrs", type=int, default=0,
+                    help="count only soil particles with at least this many soil particles within 1.5 dx "
+                         "(the coherent dome, not isolated fragments; 0 = all, the default)")
     a = ap.parse_args()
     base = a.out[:-3] if a.out.endswith(".h5") else a.out
     csv = a.csv or base + "_bubble.csv"
@@ -84,7 +99,7 @@ def main():
         dx = spacing(top)
         rows = []
         for k, t in fr:
-            h, w = measure(f["frames"][k][a.soil]["x"][:], z_s, dx)
+            h, w = measure(f["frames"][k][a.soil]["x"][:], z_s, dx, a.min_nbrs)
             rows.append((t * 1e3, h * 1e3, w * 1e3))
         rows = np.array(rows)
         np.savetxt(csv, rows, delimiter=",", header="t_ms,height_mm,width_mm", comments="", fmt="%.6g")

@@ -1,0 +1,151 @@
+#!/usr/bin/python3
+"""Buried 100 g C4 charge in sand, DOB 3 cm (issue "coupled blast"): convergence of the soil
+bubble height at 0.5 ms over three resolutions of examples/buried_charge.yaml (tlpd soil, pd_sph
+coupling), and the SPH-soil variant of the same scene (examples/buried_charge_sph.yaml) in the
+same figure.
+
+Resolutions: the near field (the charge and the refined sand box around it) is scaled by s =
+1 (the example: charge 6 mm, sand 12 mm), 0.75 (4.5 / 9 mm) and 0.6 (3.6 / 7.2 mm); the far field
+(25 mm) is kept: at 0.5 ms the sand's elastic wave (c = sqrt(E/rho) = 240 m/s) has travelled
+0.12 m, inside the refined box (0.16 m). Bubble height: tools/bubble.py (height on the charge
+axis of the soil above the initial surface).
+
+Reference: Bergeron, Walker & Coffey 1998 (DRES report; the bubble curves used by 000 Fig. 18)
+are not available here: no measured data are plotted. Criterion (self-convergence, ejecta's
+choice): the height at 0.5 ms of the two finest tlpd runs differ by less than 10 % of the finest.
+
+    nice /usr/bin/python3 validation/buried_charge/check.py [--build build] [--levels 1,0.75,0.6]
+        [--sph-levels 1] [--outdir /tmp/bc] [--reuse] [--threads 1]
+"""
+import argparse
+import os
+import re
+import resource
+import subprocess
+import sys
+import time
+
+import h5py
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, os.path.join(ROOT, "tools"))
+import bubble  # noqa: E402  (tools/bubble.py: spacing(), measure())
+
+
+def scaled_scene(src, s, out):
+    """The example with the charge spacing and the refined sand spacing times s."""
+    t = open(src).read()
+    t = re.sub(r"output: \{file: [^,]+,", f"output: {{file: {out},", t)
+    t = t.replace("spacing: 6 mm", f"spacing: {6 * s:.6g} mm")
+    t = t.replace("spacing: 12 mm}", f"spacing: {12 * s:.6g} mm}}")
+    return t
+
+
+def run(exe, text, path_yaml, out, threads, reuse):
+    if reuse and os.path.exists(out):
+        return None
+    open(path_yaml, "w").write(text)
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.time()
+    res = subprocess.run([exe, "run", path_yaml, "--threads", str(threads)], capture_output=True, text=True)
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if res.returncode != 0:
+        sys.exit(f"ejecta failed on {path_yaml}:\n{res.stderr[-3000:]}")
+    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+    return dict(cpu=cpu, wall=time.time() - t0, maxrss_mb=r1.ru_maxrss / 1024)
+
+
+def curve(path, soil="soil"):
+    with h5py.File(path, "r") as f:
+        fr = bubble.frames(f)
+        x_init = f["frames"][fr[0][0]][soil]["x"][:]
+        z_s = float(x_init[:, 2].max())
+        top = x_init[x_init[:, 2] > z_s - 1e-9 - 0.1 * (x_init[:, 2].max() - x_init[:, 2].min())]
+        dx = bubble.spacing(top)
+        rows = []
+        for k, t in fr:
+            xs = f["frames"][k][soil]["x"][:]
+            h, w = bubble.measure(xs, z_s, dx)
+            hc, wc = bubble.measure(xs, z_s, dx, min_nbrs=3)
+            rows.append((t * 1e3, h * 1e3, w * 1e3, hc * 1e3, wc * 1e3))
+        n = {name: len(f["frames"][fr[0][0]][name]["x"]) for name in f["frames"][fr[0][0]].keys()
+             if isinstance(f["frames"][fr[0][0]][name], h5py.Group)}
+        steps = int(f["frames"][fr[-1][0]].attrs["step"])
+        bal = f["series/energy/balance"][:] if "series/energy/balance" in f else None
+        e0 = float(f["series/energy/internal"][0] + f["series/energy/kinetic"][0]) if bal is not None else 0.0
+    e = float(np.max(np.abs(bal)) / abs(e0)) if bal is not None and e0 != 0 else float("nan")
+    return np.array(rows), n, steps, e
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--build", default=os.path.join(ROOT, "build"))
+    ap.add_argument("--levels", default="1,0.75,0.6", help="near-field scale factors of the tlpd runs")
+    ap.add_argument("--sph-levels", default="1", help="scale factors of the SPH-soil runs")
+    ap.add_argument("--outdir", default="/tmp/ej_buried_charge")
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--reuse", action="store_true", help="reuse existing outputs in --outdir")
+    ap.add_argument("--png", default=os.path.join(HERE, "buried_charge.png"))
+    a = ap.parse_args()
+    exe = os.path.join(a.build, "bin", "ejecta")
+    os.makedirs(a.outdir, exist_ok=True)
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    results = []
+    for kind, src, levels in (("tlpd", "buried_charge.yaml", a.levels), ("sph", "buried_charge_sph.yaml", a.sph_levels)):
+        for s in [float(q) for q in levels.split(",") if q.strip()]:
+            name = f"bc_{kind}_{s:g}"
+            out = os.path.join(a.outdir, name + ".h5")
+            perf = run(exe, scaled_scene(os.path.join(ROOT, "examples", src), s, out),
+                       os.path.join(a.outdir, name + ".yaml"), out, a.threads, a.reuse)
+            rows, n, steps, e = curve(out)
+            h05 = float(np.interp(0.5, rows[:, 0], rows[:, 1]))
+            hc05 = float(np.interp(0.5, rows[:, 0], rows[:, 3]))
+            results.append(dict(kind=kind, s=s, rows=rows, n=n, steps=steps, bal=e, h05=h05, hc05=hc05, perf=perf))
+            mq = n.get("charge", 0) * (6e-3 * s) ** 3 * 1601.0 * 1e3  # lattice charge mass, g (quarter)
+            r_mass = f"charge {mq:.1f} g of 25.0 g (quarter), "
+            ptxt = (f", CPU {perf['cpu']:.0f} s, max RSS {perf['maxrss_mb']:.0f} MB" if perf else ", reused")
+            print(f"{kind} s = {s:g} (charge {6 * s:g} mm, sand {12 * s:g} mm): particles {n}, {steps} steps, "
+                  f"{r_mass}height at 0.5 ms {h05:.1f} mm (coherent dome, >= 3 neighbours: {hc05:.1f} mm), "
+                  f"width {np.interp(0.5, rows[:, 0], rows[:, 2]):.1f} mm, "
+                  f"max |balance|/E0 {e:.2e}{ptxt}", flush=True)
+
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
+    for r in results:
+        ls = "o-" if r["kind"] == "tlpd" else "s--"
+        lab = f"{r['kind']} soil, charge {6 * r['s']:g} / sand {12 * r['s']:g} mm ({sum(r['n'].values())} particles)"
+        ax[0].plot(r["rows"][:, 0], r["rows"][:, 1], ls, ms=3, label=lab)
+        ax[1].plot(r["rows"][:, 0], r["rows"][:, 3], ls, ms=3, label=lab)
+        ax[2].plot(r["rows"][:, 0], r["rows"][:, 2], ls, ms=3, label=lab)
+    ax[0].set_ylabel("bubble height, tools/bubble.py (mm)")
+    ax[1].set_ylabel("coherent dome height, >= 3 soil neighbours in 1.5 dx (mm)")
+    ax[2].set_ylabel("bubble width (mm)")
+    for q in ax:
+        q.set_xlabel("t (ms)")
+        q.grid(alpha=0.3)
+        q.legend(fontsize=7)
+    fig.suptitle("Buried 100 g C4, DOB 3 cm: soil bubble (no measured curve: Bergeron et al. 1998 not available)",
+                 fontsize=10)
+    fig.tight_layout()
+    fig.savefig(a.png, dpi=110)
+
+    tl = sorted([r for r in results if r["kind"] == "tlpd"], key=lambda r: -r["s"])
+    ok = False
+    if len(tl) >= 2:
+        f1, f2 = tl[-1]["h05"], tl[-2]["h05"]
+        d = abs(f2 - f1) / max(abs(f1), 1e-12)
+        ok = d < 0.10
+        hs = ", ".join("%.1f" % r["h05"] for r in tl)
+        ss = ", ".join("%g" % r["s"] for r in tl)
+        print(f"convergence: height at 0.5 ms {hs} mm (s = {ss}); two finest differ by {100 * d:.1f} % of the "
+              f"finest (criterion 10 %)")
+    print("PASS" if ok else "FAIL", f"figure {a.png}")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
