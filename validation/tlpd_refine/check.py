@@ -66,6 +66,7 @@ sets:
   bar:
     method: tlpd
     material: bar
+    ghost_force_correction: true
 {f"    horizon_length: {HL}" + chr(10) if HL > 0 else ""}    shape: {{box: {{min: [0], max: [{L}]}}}}
     spacing: {spacing}
 {refine}    initial:
