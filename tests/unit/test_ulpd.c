@@ -519,6 +519,24 @@ static void urun_open(vrun *r, const char *scene_path, const ej_run_opts *opts)
   ck_assert_int_eq(rc, EJ_OK);
 }
 
+/* Scene of a uniform gas (1.2 kg/m^3, 1e5 Pa) filling a 0.1 m box periodic in x, y and z with
+ * spacing 0.01; `extra` adds lines to the set (e.g. the density option). */
+static void periodic_box_scene(const char *path, const char *output, const char *extra)
+{
+  char text[1024];
+  snprintf(text, sizeof text,
+           "ejecta: 1\ndimension: 3\ntime: {end: 0.05, cfl: 0.3}\n"
+           "output: {file: %s, fields: [v, rho, p]}\n"
+           "materials:\n  gas: {rho0: 1.2, eos: {model: ideal_gas, gamma: 1.4}}\n"
+           "sets:\n  gas:\n    method: ulpd\n    material: gas\n%s"
+           "    shape: {box: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}}\n    spacing: 0.01\n"
+           "    rho: 1.2\n    p: 1.0e5\n"
+           "boundaries:\n  - periodic: {axis: x, min: 0, max: 0.1}\n"
+           "  - periodic: {axis: y, min: 0, max: 0.1}\n  - periodic: {axis: z, min: 0, max: 0.1}\n",
+           output, extra);
+  vrun_write(path, text);
+}
+
 /* A uniform gas filling a box periodic in x, y and z (every family complete, through the ghost
  * images) stays exactly at rest: no spurious motion, density and energy unchanged. */
 START_TEST(test_uniform_periodic)
@@ -527,14 +545,7 @@ START_TEST(test_uniform_periodic)
   vrun_dir(dir, sizeof dir, "ulpd_uniform");
   snprintf(scene, sizeof scene, "%s/box.yaml", dir);
   snprintf(out, sizeof out, "%s/box.h5", dir);
-  vrun_write(scene, "ejecta: 1\ndimension: 3\ntime: {end: 0.05, cfl: 0.3}\n"
-                    "output: {file: box.h5, fields: [v, rho, p]}\n"
-                    "materials:\n  gas: {rho0: 1.2, eos: {model: ideal_gas, gamma: 1.4}}\n"
-                    "sets:\n  gas:\n    method: ulpd\n    material: gas\n"
-                    "    shape: {box: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}}\n    spacing: 0.01\n"
-                    "    rho: 1.2\n    p: 1.0e5\n"
-                    "boundaries:\n  - periodic: {axis: x, min: 0, max: 0.1}\n"
-                    "  - periodic: {axis: y, min: 0, max: 0.1}\n  - periodic: {axis: z, min: 0, max: 0.1}\n");
+  periodic_box_scene(scene, "box.h5", "");
   ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = 1};
   vrun r;
   urun_open(&r, scene, &opts);
@@ -606,14 +617,7 @@ START_TEST(test_summation_density)
   }
   ck_assert_msg(dev > 1e-3, "the jittered cloud must show a density variation (%g)", dev);
   vrun_free(&r);
-  vrun_write(scene, "ejecta: 1\ndimension: 3\ntime: {end: 0.05, cfl: 0.3}\n"
-                    "output: {file: s.h5, fields: [v, rho, p]}\n"
-                    "materials:\n  gas: {rho0: 1.2, eos: {model: ideal_gas, gamma: 1.4}}\n"
-                    "sets:\n  gas:\n    method: ulpd\n    material: gas\n    density: summation\n"
-                    "    shape: {box: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}}\n    spacing: 0.01\n"
-                    "    rho: 1.2\n    p: 1.0e5\n"
-                    "boundaries:\n  - periodic: {axis: x, min: 0, max: 0.1}\n"
-                    "  - periodic: {axis: y, min: 0, max: 0.1}\n  - periodic: {axis: z, min: 0, max: 0.1}\n");
+  periodic_box_scene(scene, "s.h5", "    density: summation\n");
   urun_open(&r, scene, &opts);
   r.scene->max_steps = 20;
   vrun_run(&r);
