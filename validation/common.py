@@ -32,7 +32,11 @@ def run(exe, scene_text, name, outdir, threads=2, reuse=False, log=print):
         f.write(scene_text)
     t0 = time.time()
     cmd = [exe, "run", scene, "-o", out, "--threads", str(threads)]
-    res = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    # libgomp's default wait policy spins at every barrier: on a loaded (shared) machine a
+    # 2-thread run then burns ~9x the CPU of the 1-thread one (validation/taylor_bar README).
+    env = dict(os.environ)
+    env.setdefault("OMP_WAIT_POLICY", "passive")
+    res = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
     wall = time.time() - t0
     if res.returncode != 0:
         sys.stdout.write(res.stdout)
