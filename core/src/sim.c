@@ -92,6 +92,77 @@ static ej_range ej_chunk_range(const ej_set *s, int64_t c)
   return (ej_range){(ej_idx)(c * cs), (ej_idx)(end < s->n ? end : s->n)};
 }
 
+/* EJECTA_PROFILE=2: per-region load-balance profile of the step loop (diagnostic only, file-static,
+ * one simulation per process). Each chunk's cost is the CPU time of the thread that ran it
+ * (CLOCK_THREAD_CPUTIME_ID: the time the thread waited for a core on a loaded machine is not
+ * counted); per region ordinal k within the step it sums the chunk costs (the work), the busiest
+ * thread's share as run, and the makespans two idle workers would reach from those costs with the
+ * dynamic schedule (each chunk, in order, to the worker that frees first) and with a static one
+ * (contiguous halves): a load-independent estimate of the idle-machine imbalance. */
+#define EJ_PROF_MAXR 24
+#define EJ_PROF_MAXC 4096
+#define EJ_PROF_MAXT 64
+typedef struct ej_prof_region {
+  double work, thr_max, dyn2, stat2, wall, chunks;
+  int64_t n;
+} ej_prof_region;
+static struct {
+  int level, k, in_step;
+  double cost[EJ_PROF_MAXC];
+  double busy[EJ_PROF_MAXT * 8]; /* one cache line per thread */
+  ej_prof_region r[EJ_PROF_MAXR];
+} ej_prof;
+
+static void ej_prof_region_end(int64_t nch, double wall)
+{
+  if (!ej_prof.in_step || ej_prof.k >= EJ_PROF_MAXR || nch > EJ_PROF_MAXC) return;
+  ej_prof_region *R = &ej_prof.r[ej_prof.k++];
+  double work = 0, w[2] = {0, 0}, half = 0, tmax = 0;
+  for (int64_t c = 0; c < nch; ++c) {
+    work += ej_prof.cost[c];
+    w[w[1] < w[0]] += ej_prof.cost[c];
+    if (c < (nch + 1) / 2) half += ej_prof.cost[c];
+  }
+  for (int t = 0; t < EJ_PROF_MAXT; ++t) {
+    if (ej_prof.busy[8 * t] > tmax) tmax = ej_prof.busy[8 * t];
+    ej_prof.busy[8 * t] = 0;
+  }
+  R->work += work, R->thr_max += tmax, R->dyn2 += w[0] > w[1] ? w[0] : w[1];
+  R->stat2 += half > work - half ? half : work - half;
+  R->wall += wall, R->chunks += (double)nch, R->n++;
+}
+
+static void ej_prof_print(int64_t steps, double loop, double par)
+{
+  double work = 0, tmax = 0, dyn = 0, stat = 0, wall = 0;
+  fprintf(stderr, "ejecta: region profile, per step [us]: k chunks work busiest-thread dyn2-makespan static2-makespan "
+                  "master-wall (imbalance = makespan / (work/2))\n");
+  for (int k = 0; k < EJ_PROF_MAXR; ++k) {
+    const ej_prof_region *R = &ej_prof.r[k];
+    if (!R->n) continue;
+    const double f = 1e6 / (double)steps;
+    fprintf(stderr, "  %2d %5.1f %9.2f %9.2f %9.2f (%.3f) %9.2f (%.3f) %9.2f\n", k, R->chunks / (double)R->n, f * R->work,
+            f * R->thr_max, f * R->dyn2, R->work > 0 ? 2 * R->dyn2 / R->work : 0, f * R->stat2,
+            R->work > 0 ? 2 * R->stat2 / R->work : 0, f * R->wall);
+    work += R->work, tmax += R->thr_max, dyn += R->dyn2, stat += R->stat2, wall += R->wall;
+  }
+  const double f = 1e6 / (double)steps;
+  fprintf(stderr, "  all     %9.2f %9.2f %9.2f (%.3f) %9.2f (%.3f) %9.2f\n", f * work, f * tmax, f * dyn,
+          work > 0 ? 2 * dyn / work : 0, f * stat, work > 0 ? 2 * stat / work : 0, f * wall);
+  /* two idle workers (read from a 1-thread run): the main thread's serial time plus each region's
+   * dynamic makespan; the time inside the regions that no chunk accounts for (fork/join, the
+   * profile's own clock reads) either split between the workers (optimistic) or not at all */
+  const double t2 = (loop - par) + dyn, t2c = t2 + (par - work);
+#ifdef _OPENMP
+  if (omp_get_max_threads() > 1) {
+    fprintf(stderr, "  two idle workers: estimated from a 1-thread run only\n");
+    return;
+  }
+#endif
+  fprintf(stderr, "  two idle workers: %.2f-%.2f us per step, %.3f-%.3f x this run's %.2f us\n", f * t2, f * t2c,
+          t2c > 0 ? loop / t2c : 0, t2 > 0 ? loop / t2 : 0, f * loop);
+}
+
 /* Runs fn over the owned particles of s in chunks; the first error (lowest chunk) wins. */
 static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
 {
@@ -99,14 +170,25 @@ static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
   int64_t failed_chunk = INT64_MAX;
   ej_error_frame frames[EJ_ERROR_MAX_FRAMES];
   int nframes = 0;
-  const double t_prof = sim->profile ? ej_thread_cpu() : 0;
+  const double t_prof = sim->profile ? ej_thread_cpu() : 0, w_prof = ej_prof.level > 1 ? ej_wall() : 0;
 #pragma omp parallel for schedule(dynamic, 1)
   for (int64_t c = 0; c < nch; ++c) {
     int64_t seen;
 #pragma omp atomic read
     seen = failed_chunk;
     if (seen < c) continue;
+    const double t_c = ej_prof.level > 1 ? ej_thread_cpu() : 0;
     ej_err rc = fn(sim, s, ctx, c, ej_chunk_range(s, c));
+    if (ej_prof.level > 1 && c < EJ_PROF_MAXC) {
+      const double dt_c = ej_thread_cpu() - t_c;
+      ej_prof.cost[c] = dt_c;
+#ifdef _OPENMP
+      const int tid = omp_get_thread_num();
+#else
+      const int tid = 0;
+#endif
+      if (tid < EJ_PROF_MAXT) ej_prof.busy[8 * tid] += dt_c;
+    }
     if (rc != EJ_OK) {
 #pragma omp critical(ej_chunk_error)
       {
@@ -120,6 +202,7 @@ static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
     }
   }
   if (sim->profile) sim->prof_par += ej_thread_cpu() - t_prof, sim->prof_regions++;
+  if (ej_prof.level > 1) ej_prof_region_end(nch, ej_wall() - w_prof);
   if (failed_chunk != INT64_MAX) {
     ej_error_import(frames, nframes);
     return ej_error_push(frames[0].code, __FILE__, __LINE__, __func__, NULL);
@@ -1262,6 +1345,7 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
   {
     const char *prof = getenv("EJECTA_PROFILE");
     sim->profile = prof && *prof && strcmp(prof, "0") != 0;
+    ej_prof.level = sim->profile ? (strcmp(prof, "2") == 0 ? 2 : 1) : 0;
   }
   if (opts && opts->t_end > 0) scene->t_end = opts->t_end;
   EJ_TRY_GOTO(rc, ej_models_create(sim), out_destroy);
@@ -1346,6 +1430,7 @@ ej_err ej_sim_run(ej_sim *sim)
   while (sim->t < sc->t_end - eps && (sc->max_steps <= 0 || sim->step < sc->max_steps)) {
     if (sim->t + sim->dt > sc->t_end) sim->dt = sc->t_end - sim->t; /* land on the end time */
     static const bool zero = true;
+    ej_prof.k = 0, ej_prof.in_step = 1;
     for (int i = 0; i < sim->n_sets; ++i)
       EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_drift_chunk, (void *)&zero), out);
     sim->t += sim->dt;
@@ -1387,6 +1472,7 @@ out:
             "parallel regions per step, serial fraction %.4f (output: series and frames %.4f of the step)\n",
             (long long)ns, 1e3 * sim->prof_loop / (double)ns, 1e3 * sim->prof_par / (double)ns,
             (double)sim->prof_regions / (double)ns, 1 - sim->prof_par / sim->prof_loop, sim->prof_out / sim->prof_loop);
+    if (ej_prof.level > 1) ej_prof_print(ns, sim->prof_loop, sim->prof_par);
   }
   if (sim->progress) ej_progress(sim, t0, step0, psteps, true);
   /* A numerical failure keeps its state (a last frame and a checkpoint) in NAME.partial. */
