@@ -37,6 +37,11 @@ def set_geometry(a):
     global L, XI, XC, A, T_END
     A = a
     L, XI, XC = 25 * a, 12.5 * a, 6.25 * a
+    # the interface on an edge of the coarse lattice (cells [k, k+1] DXC from x = 0): `refine:`
+    # removes the coarse cells whose centre lies in the region, so a boundary inside a coarse
+    # cell leaves a hole of up to DXC/2 with no particle (a = 0.2 m: 12.5a = 2.5 m = 312.5 DXC,
+    # a 4 mm void between the last fine and the first coarse cell)
+    XI = DXC * math.floor(XI / DXC + 1e-9)
     T_END = 16.25 * a / C  # the transmitted pulse has passed the coarse probe, no echo from x = L yet
 
 
@@ -110,6 +115,8 @@ def main():
     dxs = np.diff(x0)
     print(f"horizon: {f'{HL} m (both zones)' if HL > 0 else '3 dx_i'}; pulse half-width a = {A} m; bar {L:g} m; refined bar: {len(x0)} particles, spacing "
           f"{dxs[x0[:-1] < XI - 0.02].mean() * 1e3:.3f} mm (x < {XI:g} m), {dxs[x0[:-1] > XI + 0.02].mean() * 1e3:.3f} mm (x > {XI:g} m)")
+    gap = dxs[np.argmin(np.abs(x0[:-1] - XI))]  # the step across the interface: (DXF + DXC) / 2 without a hole
+    print(f"step across the interface at x = {XI:g} m: {gap * 1e3:.3f} mm (no hole: {(DXF + DXC) / 2 * 1e3:.3f} mm)")
     xp1, xp2 = 0.75 * XI, 1.25 * XI
     # probe in the fine zone: incident pulse, then the window of a reflection from x = 1 m
     Tu, Vu, xpu = history(runs["uniform"], xp1)

@@ -33,7 +33,7 @@ R, H, OMEGA = 0.025, 0.05, 1000.0
 TOL = 0.005
 
 
-def scene(dx, objective, out, columns=None, t_end="1 ms", E="98.5 MPa"):
+def scene(dx, objective, out, columns=None, t_end="1 ms", E="98.5 MPa", kind="rate"):
     init = ""
     if columns is not None:
         lines = []
@@ -53,7 +53,7 @@ sets:
     method: tlpd
     material: soil
     objective: {str(objective).lower()}
-    shape: {{cylinder: {{base: [0, 0, 0], axis: [0, 0, 1], radius: {R}, height: {H}}}}}
+""" + ("" if objective else f"    nonobjective: {kind}\n") + f"""    shape: {{cylinder: {{base: [0, 0, 0], axis: [0, 0, 1], radius: {R}, height: {H}}}}}
     spacing: {dx}
 """ + init
 
@@ -73,23 +73,25 @@ def main():
     d0 = common.read_frame(p0, common.frames(p0)[0])
     xy = np.round(d0["x"][:, :2], 9)  # the lattice's own columns (any dx)
     cols = sorted(set(map(tuple, xy)))
-    # (tag, E, objective): the soil of 000 and a 25x stiffer one (centrifugal stretch
-    # rho omega^2 R^2 / E: 1.1 % and 0.043 %)
-    cases = [("soil", "98.5 MPa", True), ("soil", "98.5 MPa", False), ("stiff", "2.4625 GPa", True),
-             ("stiff", "2.4625 GPa", False)]
+    # (tag, E, kind): kind "objective" (Hughes-Winget), "rate" (objective: false, 000 Eq 92
+    # without the rotation of Eq 93), "small_strain" (objective: false, sym(grad_X du)).
+    # soil: 000 Table 2 elastic constants (the paper's set-up); stiff: 25x E (centrifugal
+    # stretch rho omega^2 R^2 / E 1.08 % and 0.043 %)
+    cases = [(t, E, k) for t, E in (("soil", "98.5 MPa"), ("stiff", "2.4625 GPa"))
+             for k in ("objective", "rate", "small_strain")]
     res = {}
-    for tag, E, objective in cases:
-        name = f"rot_{tag}_{'objective' if objective else 'plain'}"
+    for tag, E, kind in cases:
+        name = f"rot_{tag}_{kind}"
         out = os.path.join(a.out, name + ".h5")
-        txt = scene(a.dx, objective, out, cols, t_end="1 ms", E=E)
+        txt = scene(a.dx, kind == "objective", out, cols, t_end="1 ms", E=E, kind=kind)
         if not (a.reuse and (os.path.exists(out) or os.path.exists(out + ".partial"))):
             try:
                 common.run(exe, txt, name, a.out, threads=a.threads)
-            except RuntimeError as e:  # the non-objective run may be stopped (NaN / watchdog)
+            except RuntimeError as e:  # a non-objective run may be stopped (det F < 0)
                 print(f"  {name}: {e}")
-        res[(tag, objective)] = out if os.path.exists(out) else (out + ".partial" if os.path.exists(out + ".partial") else None)
+        res[(tag, kind)] = out if os.path.exists(out) else (out + ".partial" if os.path.exists(out + ".partial") else None)
     # probes from the initial frame
-    p0 = res[("soil", True)]
+    p0 = res[("soil", "objective")]
     f0 = common.read_frame(p0, common.frames(p0)[0])
     x0 = f0["x"]
     ids0 = f0["id"]
@@ -104,23 +106,25 @@ def main():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axs = plt.subplots(2, 2, figsize=(11, 8))
+    fig, axs = plt.subplots(2, 3, figsize=(15, 8))
     ok = True
-    for (tag, E, objective), axk in zip(cases, axs.flat):
-        path = res[(tag, objective)]
+    summary = []
+    for (tag, E, kind), axk in zip(cases, axs.flat):
+        path = res[(tag, kind)]
         if path is not None:
             try:  # a run stopped while writing may leave an unreadable file
                 common.frames(path)
             except OSError as err:
-                print(f"{tag} objective={objective}: unreadable output {path} ({err})")
+                print(f"{tag} {kind}: unreadable output {path} ({err})")
                 path = None
         if path is None:
-            print(f"{tag} objective={objective}: no output")
-            ok &= not objective
+            print(f"{tag} {kind}: no output")
+            ok = False
             continue
         T = []
         V = {p[1]: [] for p in probes}
         Rr = {p[1]: [] for p in probes}
+        Hh = {p[1]: [] for p in probes}
         for fr in common.frames(path):
             d = common.read_frame(path, fr)
             pos = {int(i): k for k, i in enumerate(d["id"])}
@@ -128,47 +132,52 @@ def main():
                 continue
             T.append(d["time"])
             for _, pid, _ in probes:
-                V[pid].append(np.linalg.norm(d["v"][pos[pid]]))
-                Rr[pid].append(np.hypot(*d["x"][pos[pid]][:2]))
+                xk, vk = d["x"][pos[pid]], d["v"][pos[pid]]
+                V[pid].append(np.linalg.norm(vk))
+                Rr[pid].append(np.hypot(*xk[:2]))
+                Hh[pid].append(xk[0] * vk[1] - xk[1] * vk[0])
         T = np.array(T)
-        worst = 0
+        worst_v = worst_r = worst_h = 0.0
         for frac, pid, r0 in probes:
-            v, rad = np.array(V[pid]), np.array(Rr[pid])
-            dev = np.max(np.abs(v / (OMEGA * r0) - 1)) if np.all(np.isfinite(v)) else np.inf
-            # a rigid rotation also keeps the radius: the non-objective scheme may keep |v| and
-            # lose the body instead (it flies apart), so its divergence is the larger of both
-            rdev = np.max(np.abs(rad / r0 - 1)) if np.all(np.isfinite(rad)) else np.inf
-            worst = max(worst, dev if objective else max(dev, rdev))
-            ln = axk.plot(T * 1e3, v / (OMEGA * r0), label=f"|v| / (omega r0), r0 = {r0*1e3:.2f} mm ({frac:g} R)")
-            if not objective:
-                axk.plot(T * 1e3, rad / r0, ls=":", color=ln[0].get_color(), label=f"r / r0 ({frac:g} R)")
-            print(f"{tag:5s} {'objective' if objective else 'plain':9s} r0 = {r0*1e3:6.3f} mm ({frac:4.2f} R): omega r0 = "
-                  f"{OMEGA*r0:6.3f} m/s, |v| in [{np.nanmin(v):.4g}, {np.nanmax(v):.4g}], max deviation {100*dev:.3f} %, "
-                  f"radius deviation {100*rdev:.2f} %, reached t = {T[-1]*1e3:.3f} ms")
+            v, rad, hh = np.array(V[pid]), np.array(Rr[pid]), np.array(Hh[pid])
+            fin = np.all(np.isfinite(v)) and np.all(np.isfinite(rad))
+            dev = np.max(np.abs(v / (OMEGA * r0) - 1)) if fin else np.inf
+            rdev = np.max(np.abs(rad / r0 - 1)) if fin else np.inf
+            # specific angular momentum (x v_y - y v_x) / (omega r0^2): conserved by an axisymmetric
+            # (objective) stress field whatever the breathing; a torque from a mis-rotated stress changes it
+            hdev = np.max(np.abs(hh / (OMEGA * r0 * r0) - 1)) if fin else np.inf
+            worst_v, worst_r, worst_h = max(worst_v, dev), max(worst_r, rdev), max(worst_h, hdev)
+            ln = axk.plot(T * 1e3, v / (OMEGA * r0), label=f"|v|/(w r0), r0 = {r0*1e3:.2f} mm ({frac:g} R)")
+            axk.plot(T * 1e3, rad / r0, ls=":", color=ln[0].get_color(), label=f"r/r0 ({frac:g} R)")
+            print(f"{tag:5s} {kind:12s} r0 = {r0*1e3:6.3f} mm ({frac:4.2f} R): omega r0 = {OMEGA*r0:6.3f} m/s, |v| in "
+                  f"[{np.nanmin(v):.4g}, {np.nanmax(v):.4g}], speed dev {100*dev:.3f} %, radius dev {100*rdev:.3f} %, "
+                  f"ang. mom. dev {100*hdev:.3f} %, reached t = {T[-1]*1e3:.3f} ms")
         axk.axhline(1, ls="--", lw=0.7, color="k")
-        if objective and tag == "stiff":
-            good = worst < TOL
-            print(f"stiff, objective update: max deviation {100*worst:.3f} % (tol {100*TOL:.1f} %)  {'PASS' if good else 'FAIL'}")
-        elif objective:
-            good = True
-            print(f"soil, objective update: max deviation {100*worst:.3f} % (centrifugal breathing ~ rho w^2 R^2/E = 1.1 %; "
-                  "reported, not a criterion)")
+        if kind == "objective":
+            good = worst_v < TOL
+            print(f"{tag}, objective update: max speed deviation {100*worst_v:.3f} % (tol {100*TOL:.1f} %, issue 4)  "
+                  f"{'PASS' if good else 'FAIL'}; radius {100*worst_r:.3f} %, angular momentum {100*worst_h:.3f} %")
         else:
-            good = worst > 0.05
-            print(f"{tag}, objective: false: max deviation from the rigid rotation (speed or radius) {100*worst:.1f} % "
-                  f"(must exceed 5 %)  {'PASS' if good else 'FAIL'}")
+            # 000 Fig. 8a: without the objective update the speeds diverge; here: the speed leaves
+            # the rigid value by more than 10x the tolerance (5 %) within the 1 ms
+            good = worst_v > 10 * TOL
+            print(f"{tag}, objective: false ({kind}): max speed deviation {100*worst_v:.2f} % (diverges: > {1000*TOL:.0f} %)  "
+                  f"{'PASS' if good else 'FAIL'}; radius {100*worst_r:.2f} %, angular momentum {100*worst_h:.2f} %")
+        summary.append((tag, kind, good))
         ok &= good
-        axk.set_title(f"{tag} (E = {E}), " + ("Hughes-Winget (objective: true)" if objective else "objective: false"))
+        axk.set_title(f"{tag} (E = {E}), " + ("Hughes-Winget (objective)" if kind == "objective" else f"objective: false, {kind}"),
+                      fontsize=9)
         axk.set_xlabel("t (ms)")
-        axk.set_ylabel("|v| / (omega r0)" + ("" if objective else ", r / r0 (dotted)"))
-        if not objective:
+        axk.set_ylabel("|v| / (omega r0); r / r0 dotted")
+        if kind != "objective" and (worst_v > 0.5 or worst_r > 0.5):
             axk.set_yscale("log")
-        axk.legend(fontsize=8)
+        axk.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "tlpd_rotation.png"), dpi=110)
-    if res[("stiff", True)] is not None:  # the judged run's energy budget through tools/plot_series.py
-        common.energy_figure(res[("stiff", True)], os.path.join(HERE, "tlpd_rotation_energy.png"),
-                             title="tlpd rotating column, stiff, objective: energy budget")
+    if res[("soil", "objective")] is not None:  # the paper's run: energy budget through tools/plot_series.py
+        common.energy_figure(res[("soil", "objective")], os.path.join(HERE, "tlpd_rotation_energy.png"),
+                             title="tlpd rotating cylinder, soil, objective: energy budget")
+    print("summary: " + ", ".join(f"{t}/{k} {'PASS' if g else 'FAIL'}" for t, k, g in summary))
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1
 

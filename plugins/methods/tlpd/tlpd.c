@@ -43,6 +43,8 @@ enum { TLPD_W_CONSTANT = 0, TLPD_W_QUADRATIC = 1, TLPD_W_GAUSSIAN = 2 };
 static const char *const tlpd_influence_names[] = {"constant", "quadratic", "gaussian", NULL};
 enum { TLPD_FORM_SUM = 0, TLPD_FORM_DIFFERENCE = 1 };
 static const char *const tlpd_form_names[] = {"sum", "difference", NULL};
+enum { TLPD_NONOBJ_RATE = 0, TLPD_NONOBJ_SMALL_STRAIN = 1 };
+static const char *const tlpd_nonobj_names[] = {"rate", "small_strain", NULL};
 enum { TLPD_HG_NONE = 0, TLPD_HG_ZHU_ZHAO = 1, TLPD_HG_SILLING = 2 };
 static const char *const tlpd_hg_names[] = {"none", "zhu_zhao", "silling", NULL};
 
@@ -65,6 +67,7 @@ typedef struct tlpd_config {
   bool partial_volume;
   int force_form;
   bool objective;
+  int nonobjective;
   int hourglass;
   ej_real hourglass_coefficient;
   ej_real min_rcond;
@@ -112,8 +115,13 @@ static const ej_param tlpd_params[] = {
                   "w (P_j - P_i) K_i^-1 X (000 Eq 9, the paper's form; no force from a uniform stress)."),
     EJ_PARAM_BOOL(tlpd_config, objective, 1,
                   "Objective update: Hughes-Winget rotation and the rotation-neutralised rate (000 Eqs 78-94); "
-                  "false: small-strain increments sym(grad_X du) and no rotation (not objective, the scheme 000 "
-                  "Fig. 8a contrasts with; for demonstration only)."),
+                  "false: no rotation of the stress (not objective, the scheme 000 Fig. 8a contrasts with; for "
+                  "demonstration only; which rate: nonobjective)."),
+    {.name = "nonobjective", .type = EJ_PT_ENUM, .offset = offsetof(tlpd_config, nonobjective), .flags = EJ_PF_EXPERT,
+     .unit = "1", .choices = tlpd_nonobj_names, .def_str = "rate",
+     .doc = "Strain increment when objective is false: rate, sym(h) with h = grad_X du F_n+1/2^-1 (000 Eqs 88-92 "
+            "without the rotation of Eq 93: sigma += C:d dt); small_strain, sym(grad_X du) (infinitesimal strain "
+            "from the reference gradient, no push-forward)."},
     EJ_PARAM_ENUM(tlpd_config, hourglass, tlpd_hg_names, "zhu_zhao",
                   "Zero-energy mode control: zhu_zhao, bond force 2 c E w (Y - F X) / tr K (002 Eq 15 with "
                   "its digest's modulus and w); silling, bond-level 2 c G w (Y - F X) / (|X|^2 sum w V) after "
@@ -696,15 +704,19 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
       for (int k = 0; k < 9; ++k) Fh[k] = Fi[k] - 0.5 * dF[k];
       if (ej_m3_inverse(Fhi, Fh) == 0) return tlpd_bad(s, set, i, "det F_n+1/2", ej_m3_det(Fh));
       ej_real d6h[6];
-      if (objective) {
+      if (objective || s->cfg.nonobjective == TLPD_NONOBJ_RATE) {
+        /* objective: false with nonobjective: rate skips only the rotation below (000 Eq 92
+         * with sigma_hat = sigma_n): d from the spatial increment gradient is zero for a rigid
+         * rotation, but a stressed rotating body keeps its stress in the old orientation */
         ej_m3_mul(h, dF, Fhi);
         ej_m3_sym(d6h, h);
       } else {
-        /* objective: false, the update 000 contrasts with (Fig. 8a): infinitesimal-strain
+        /* objective: false, nonobjective: small_strain: infinitesimal-strain
          * increments from the reference gradient, sym(grad_X du), no push-forward by F^-1 and no
          * rotation of the stress. Not objective: a rigid rotation by theta accumulates the
          * strain sym(R - I) (cos theta - 1 in the plane of rotation), so a spinning body is
-         * squeezed and its speeds diverge (validation/tlpd_rotation). For demonstration only. */
+         * strained (a stress-free soil cylinder flies apart, a stiff one's speeds diverge at
+         * 0.84 ms: validation/tlpd_rotation). nonobjective: small_strain; demonstration only. */
         ej_m3_sym(d6h, dF);
       }
       for (int k = 0; k < 6; ++k) di[k] = dt > 0 ? d6h[k] / dt : 0;
