@@ -835,6 +835,21 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
     const int np = ej_set_passes(sim->sets[i]);
     if (np > max_pass) max_pass = np;
   }
+  /* Interactions' pre-passes (n_pre_passes, plugin.h): before every method pass, x and v of t_n+1. */
+  for (int k = 0; k < sim->n_inter; ++k) {
+    ej_inter *in = &sim->inter[k];
+    const int npre = EJ_HAS_OP(in->ops, ej_interaction_ops, n_pre_passes) ? in->ops->n_pre_passes : 0;
+    for (int pass = -npre; pass < 0; ++pass) {
+      ej_set_update_ghosts(in->a, sim->xforms);
+      if (in->b) ej_set_update_ghosts(in->b, sim->xforms);
+      ej_inter_ctx ic = {in, pass, false};
+      EJ_TRY(ej_for_chunks(sim, in->a, ej_inter_chunk, &ic));
+      if (in->list_ba) {
+        ej_inter_ctx rc = {in, pass, true};
+        EJ_TRY(ej_for_chunks(sim, in->b, ej_inter_chunk, &rc));
+      }
+    }
+  }
   for (int pass = 0; pass < max_pass; ++pass) {
     for (int i = 0; i < sim->n_sets; ++i) {
       ej_set *s = sim->sets[i];

@@ -617,7 +617,7 @@ START_TEST(test_descriptor)
   const ej_plugin_info *info = ej_plugin_jwl_info();
   ck_assert_str_eq(info->name, "jwl");
   ck_assert_uint_eq(info->abi_major, EJ_ABI_MAJOR);
-  ck_assert_uint_eq(info->abi_minor, 1);
+  ck_assert_uint_eq(info->abi_minor, EJ_ABI_MINOR);
   ck_assert_str_eq(info->build_signature, EJ_BUILD_SIGNATURE);
 }
 END_TEST

@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 1 /* members appended to an info or ops struct        */
+#define EJ_ABI_MINOR 2 /* members appended to an info or ops struct        */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -432,6 +432,13 @@ typedef struct ej_interaction_ops {
   ej_err (*report)(void *state, ej_series_value *out, int max, int *n);
   /* Sets it acts on: 1, 2, or 0 for either; the scene is checked against it. */
   int n_sets;
+  /* Passes before the methods' passes (ABI 1.2; 0 or absent in an older plugin's table: none): compute is
+   * called with pass = -n_pre_passes .. -1, over a's ranges (and b's with both_ways), after the
+   * drift and the neighbour rebuild and before any method pass of the step, so x and v are those
+   * of t_n+1 and every other field is still the previous evaluation's. For fields that a method
+   * reads in its own passes (sph_wall fills sph's L_wall, the wall's share of a solid's velocity
+   * gradient, before sph's stress pass). */
+  int n_pre_passes;
 } ej_interaction_ops;
 
 /* ------------------------------------------------------------------ registration */

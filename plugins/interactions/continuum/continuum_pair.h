@@ -43,6 +43,7 @@ typedef struct cpl_side {
   ej_real *a, *rho_dot, *e_dot;
   ej_real c_fallback;  /* sound speed when the set has no c field */
   ej_real h_fallback;  /* h_factor, when the set has no h field */
+  int spherical;       /* sph geometry: spherical (1D, x = r) with spherical_energy: pair (pdv_pair) */
 } cpl_side;
 
 enum { CPL_FORM_VOLUME = 0, CPL_FORM_STANDARD = 1 };
@@ -67,6 +68,7 @@ static inline ej_err cpl_bind(cpl_side *s, ej_set *set, const char *who, ej_real
   /* a set that publishes a line mass (sph geometry: spherical) couples with it: the 1D sums of a
    * spherically symmetric set weigh neighbours by m/(4 pi r^2), not by the shell mass m */
   s->m = ej_set_field(set, "m_line");
+  s->spherical = s->m != NULL && ej_set_field(set, "pdv_pair") != NULL; /* sph spherical_energy: pair */
   if (!s->m) s->m = ej_set_field(set, "m");
   s->vol0 = ej_set_field(set, "vol0");
   s->a = ej_set_field(set, "a");
@@ -146,6 +148,14 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
     const ej_real rho_i = A->rho[i], irho2_i = 1.0 / (rho_i * rho_i), c_i = cpl_c(A, i);
     (void)irho2_i;
     ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0, drho_m = 0;
+    /* A spherical side (1D, x = r) with sph `spherical_energy: pair`, away from the axis
+     * (|x_i| >= SPH_SPHERICAL_EXACT_R h_i, the switch of sph's spherical pass, same h) takes the
+     * pdV work in the exact pair form: v_i - v_j -> u_ij =
+     * v_i - v_j r_j^2/r_i^2, so that sum m (v^2/2 + e) is conserved with the momentum (sph README
+     * "Spherical symmetry"); sph then adds no local -2 (p/rho) v/r for this particle. */
+    const ej_real xi0 = A->x[3 * i];
+    const int sph_exact = A->spherical && A->h && fabs(xi0) >= SPH_SPHERICAL_EXACT_R * A->h[i];
+    const ej_real inv_xi2 = sph_exact ? 1.0 / (xi0 * xi0) : 0.0;
     /* 001 Eq 4 (Liu, Zhang & Feng 2017): psi_i = 1 / ln k_i, k_i = rho_max / rho_min over i and
      * the particles of its support that this list sees (the other set's: across a material
      * interface they carry the density jump); k_i = 1 (psi infinite) is Eq 2, the mass form. */
@@ -205,7 +215,12 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
       ej_m3_apply(Sig, Si, g);
       for (int q = 0; q < 3; ++q) acc[q] += mj * Sg[q];
       /* (v_i - v_j) = -dv */
-      de += mj * (dv[0] * Sig[0] + dv[1] * Sig[1] + dv[2] * Sig[2]);
+      if (sph_exact) {
+        const ej_real xj0 = B->x[3 * j];
+        de += mj * ((B->v[3 * j] * xj0 * xj0 * inv_xi2 - A->v[3 * i]) * Sig[0]); /* -u_ij (1D) */
+      } else {
+        de += mj * (dv[0] * Sig[0] + dv[1] * Sig[1] + dv[2] * Sig[2]);
+      }
       const ej_real vg = dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2];
       if (psi < 0) drho -= (mj / B->rho[j]) * vg;
       else if (isinf(psi)) drho_m -= mj * vg;

@@ -6,7 +6,9 @@
  * method with fixed or prescribed-velocity boundary conditions).
  *
  * Gather form in two passes (both_ways; the core calls pass 0 then pass 1, each first over the
- * SPH set's ranges, then over the wall set's ranges, with ghosts refreshed in between):
+ * SPH set's ranges, then over the wall set's ranges, with ghosts refreshed in between), and for a
+ * solid with wall_gradient a pre-pass (pass -1, n_pre_passes = 1: before sph's own passes) that
+ * writes the wall's share of the velocity gradient into sph's field L_wall (sw_grad_pass):
  *  pass 0, wall side: each wall particle w extrapolates from its SPH neighbours f (owned and
  *    ghost), with W_wf = W(|x_w - x_f|, h_f) and r_wf = x_w - x_f,
  *      sigma_w = [sum_f sigma_f W_wf - ((g - a_w) . sum_f rho_f r_wf W_wf) I] / sum_f W_wf
@@ -26,7 +28,8 @@
  *    wall particle's geometric volume; the wall material's own rho0 plays no role) and
  *    grad_i W = dW/dr(r, h_i) (x_i - x_w)/r:
  *      dv_i/dt   += sum_w m_w (sigma_i/rho_i^2 + sigma_w/rho_w^2 - Pi_iw I) grad_i W
- *      drho_i/dt += rho_i sum_w vol0_w (v_i - v_w) . grad_i W            (v_w the wall's velocity)
+ *      drho_i/dt += rho_i sum_w vol0_w (v_i - v_w) . grad_i W            (v_w the wall's velocity;
+ *                   not for a solid with wall_gradient: sph's -rho tr(L + L_wall) holds it)
  *      de_i/dt   += -sum_w m_w (sigma_i/rho_i^2) : ((v_i - v_w) (x) grad_i W)
  *                   + sum_w m_w Pi_iw (v_i - v_w) . grad_i W   (all viscous heat to i: minus the
  *                     power of the viscous force relative to the wall)
@@ -89,9 +92,9 @@ static const ej_param sw_params[] = {
                   "Viscosity singularity guard: eta^2 h^2 is added to r^2."),
     EJ_PARAM_BOOL(sw_config, wall_gradient, 1,
                   "Solids: the wall pairs enter the velocity gradient of the SPH particles next to the wall, "
-                  "L_i += sum_w vol0_w (v_w - v_i) (x) grad_i W (free slip: normal part only), applied by a second "
-                  "material update of those particles after the step (without it a solid sees no elastic "
-                  "compression or shear from the wall)."),
+                  "L_i += sum_w vol0_w (v_w - v_i) (x) grad_i W (free slip: normal part only), through sph's field "
+                  "L_wall filled before sph's stress pass (one material update per step; without it a solid sees "
+                  "no elastic compression or shear from the wall)."),
     {0}};
 
 typedef struct sw_state {
@@ -99,8 +102,7 @@ typedef struct sw_state {
   const ej_set *fluid, *wall;
   ej_idx n_fluid, n_wall;
   const ej_eos *eos; /* EOS inverse for the wall density (NULL: Shepard or rest) */
-  const ej_material *mat; /* strength model of a solid SPH set (wall velocity gradient), or NULL */
-  bool mat_eos;           /* the solid also has an EOS: its material update reads p */
+  bool grad;          /* solid with wall_gradient: the pre-pass fills sph's L_wall */
   ej_real rho_rest;
   bool solid;
   /* per wall particle (owned; the wall set has no ghosts) */
@@ -144,9 +146,15 @@ static ej_err sw_create(const void *config, ej_set *a, ej_set *b, void **state)
   s->rho_rest = model ? ej_model_rho0(model) : 0;
   const ej_eos *eos = model ? ej_model_eos(model) : NULL;
   if (c->density == SW_RHO_AUTO && !s->solid) s->eos = eos;
-  if (s->solid && c->wall_gradient && model) {
-    s->mat = ej_model_material(model);
-    s->mat_eos = eos != NULL;
+  if (s->solid && c->wall_gradient) {
+    if (!ej_set_field(a, "L_wall")) {
+      ej_free(s);
+      EJ_FAIL(EJ_ERR_INPUT,
+              "sph_wall: wall_gradient needs the field L_wall on set '%s' (method sph with strength: true); set "
+              "wall_gradient: false for another method",
+              ej_set_name(a));
+    }
+    s->grad = true;
   }
   const size_t nw = (size_t)s->n_wall + 1, nf = (size_t)s->n_fluid + 1;
   s->w_sig = ej_calloc(6 * nw, sizeof(ej_real));
@@ -272,19 +280,52 @@ static ej_err sw_wall_pass(sw_state *s, ej_set *wall, ej_set *fl, const ej_nbr *
   return EJ_OK;
 }
 
-/* The wall's share of the velocity gradient of solid particle i (sph.c computes L_i from the set's
- * own particles, before interactions run): a second material update of i with the rate of
- * deformation d_w = sym(L_w) over the step (operator split; the wall's spin is not applied). It
- * runs after the step's forces, so the stress it adds acts from the next step on. Free slip keeps
- * only the normal part n (n . L_w n) n (x) n of the wall's rate (no shear from a frictionless wall).
- * The energy equation already holds sigma_i : L_w / rho_i (the de term of the wall pairs). */
-static ej_err sw_wall_strain(const sw_state *s, ej_set *fl, ej_idx i, ej_real Lw[9], const ej_real nrm[3])
+/* Pre-pass (pass -1, before sph's passes) over solid SPH particles r: the wall's share of the
+ * velocity gradient, written to sph's scratch field L_wall, which sph_solid_stress_pass adds to
+ * its own L_i before the single material update of the step (rate of deformation and spin):
+ *   L_w,i = sum_w vol0_w (v_w - v_i) (x) grad_i W(x_i - x_w, h_i)
+ * the wall particles as SPH neighbours of i in 001 Eq 1.6 (Peng et al. 2019's dummy particles in
+ * the strain rate), with the wall's own velocity v_w as in the continuity and energy terms. Free
+ * slip keeps only the normal part (n . L_w n) n (x) n (no shear, no spin from a frictionless wall).
+ * sph's continuity rho_dot = -rho tr L then holds the wall's compression, so the fluid pass adds
+ * no drho for these particles. x and v are those of t_n+1; h_i is the previous evaluation's. */
+static ej_err sw_grad_pass(const sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr *fw, ej_range r)
 {
-  const ej_real dt = ej_set_dt(fl);
-  if (!(dt > 0)) return EJ_OK;
-  if (s->cfg.slip == SW_FREE_SLIP) {
+  const int dim = ej_set_dim(fl);
+  const sw_config *c = &s->cfg;
+  const ej_real *xf = ej_set_field(fl, "x"), *vf = ej_set_field(fl, "v"), *hf = ej_set_field(fl, "h");
+  const ej_real *xw = ej_set_field(wall, "x"), *vw = ej_set_field(wall, "v"), *volw = ej_set_field(wall, "vol0");
+  ej_real *Lwall = ej_set_field(fl, "L_wall");
+  EJ_ENSURE(xf && vf && hf && xw && vw && volw && Lwall, EJ_ERR_INTERNAL, "sph_wall: fields missing");
+  const ej_real sigma_k = sph_kernel_sigma(c->kernel, dim);
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    ej_real *Lw = Lwall + 9 * (size_t)i;
+    for (int q = 0; q < 9; ++q) Lw[q] = 0;
+    const ej_real h = hf[i];
+    if (!(h > 0)) continue;
+    const ej_real ih = 1.0 / h, dwfac = sigma_k * sph_inv_pow(ih, dim + 1);
+    ej_real nrm[3] = {0, 0, 0};
+    int n_wall = 0;
+    for (ej_off k = fw->off[i]; k < fw->off[i + 1]; ++k) {
+      const ej_idx w = fw->idx[k];
+      const ej_real dx[3] = {xw[3 * w] - xf[3 * i], xw[3 * w + 1] - xf[3 * i + 1], xw[3 * w + 2] - xf[3 * i + 2]};
+      const ej_real r2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
+      if (r2 >= 4.0 * h * h || r2 <= 0) continue;
+      const ej_real rr = sqrt(r2);
+      const ej_real dwdr = dwfac * sph_kernel_df(c->kernel, dim, rr * ih);
+      const ej_real g[3] = {-dwdr * dx[0] / rr, -dwdr * dx[1] / rr, -dwdr * dx[2] / rr}; /* grad_i W */
+      const ej_real dv[3] = {vw[3 * w] - vf[3 * i], vw[3 * w + 1] - vf[3 * i + 1], vw[3 * w + 2] - vf[3 * i + 2]};
+      for (int a = 0; a < 3; ++a)
+        for (int q = 0; q < 3; ++q) Lw[3 * a + q] += volw[w] * dv[a] * g[q];
+      for (int q = 0; q < 3; ++q) nrm[q] += dx[q] * dwdr; /* dW/dr < 0, x_w - x_i: away from the wall */
+      ++n_wall;
+    }
+    if (n_wall == 0 || c->slip != SW_FREE_SLIP) continue;
     const ej_real nl = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
-    if (!(nl > 0)) return EJ_OK;
+    if (!(nl > 0)) {
+      for (int q = 0; q < 9; ++q) Lw[q] = 0;
+      continue;
+    }
     const ej_real n[3] = {nrm[0] / nl, nrm[1] / nl, nrm[2] / nl};
     ej_real Ln[3];
     ej_m3_apply(Ln, Lw, n);
@@ -292,19 +333,7 @@ static ej_err sw_wall_strain(const sw_state *s, ej_set *fl, ej_idx i, ej_real Lw
     for (int a = 0; a < 3; ++a)
       for (int q = 0; q < 3; ++q) Lw[3 * a + q] = lnn * n[a] * n[q];
   }
-  ej_real d6[6], c_out = 0, wp = 0;
-  ej_m3_sym(d6, Lw);
-  ej_real *rho = ej_set_field(fl, "rho"), *e = ej_set_field(fl, "e"), *stress = ej_set_field(fl, "stress");
-  ej_real *p = ej_set_field(fl, "p");
-  int32_t *failed = ej_set_field_int(fl, "failed");
-  ej_real *hist_base[16], *hist[16];
-  const int nh = ej_set_hist(fl, hist_base, 16);
-  EJ_ENSURE(nh <= 16, EJ_ERR_INTERNAL, "sph_wall: more than 16 history variables");
-  for (int k = 0; k < nh; ++k) hist[k] = hist_base[k] + i;
-  ej_mat_batch b = {.n = 1, .dt = dt, .rho = rho + i, .e = e + i, .d = d6, .F = NULL,
-                    .p = (s->mat_eos && p) ? p + i : NULL, .stress = stress + 6 * (size_t)i, .hist = hist,
-                    .c = &c_out, .w_plastic = &wp, .failed = failed ? failed + i : NULL};
-  return ej_material_update(s->mat, &b);
+  return EJ_OK;
 }
 
 /* Pass 1 over SPH particles r: the wall pair terms. */
@@ -325,8 +354,6 @@ static ej_err sw_fluid_pass(sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr 
     const ej_real irho2 = 1.0 / (rho_i * rho_i);
     const ej_real dwfac = sigma_k * sph_inv_pow(ih, dim + 1);
     ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0, dt = INFINITY;
-    ej_real Lw[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, nrm[3] = {0, 0, 0};
-    int n_wall = 0;
     for (ej_off k = fw->off[i]; k < fw->off[i + 1]; ++k) {
       const ej_idx w = fw->idx[k];
       const ej_real dx[3] = {xw[3 * w] - xf[3 * i], xw[3 * w + 1] - xf[3 * i + 1], xw[3 * w + 2] - xf[3 * i + 2]};
@@ -363,19 +390,13 @@ static ej_err sw_fluid_pass(sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr 
        * viscosity does no net work: with (v_i - v_w,visc) it would double-count for no-slip */
       de += m_w * pi * (dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2]);
       drho += volw[w] * (dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2]);
-      /* the wall's share of the velocity gradient, with the same wall velocity v_w as the
-       * continuity and energy terms: L_i += vol0_w (v_w - v_i) (x) grad_i W */
-      for (int a = 0; a < 3; ++a)
-        for (int q = 0; q < 3; ++q) Lw[3 * a + q] -= volw[w] * dv[a] * g[q];
-      for (int q = 0; q < 3; ++q) nrm[q] += dx[q] * dwdr; /* dW/dr < 0, x_w - x_i: away from the wall */
-      ++n_wall;
       const ej_real wsp = c_i + 2.0 * sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
       if (wsp > 0 && h / wsp < dt) dt = h / wsp;
     }
-    if (s->mat && n_wall > 0) EJ_TRY(sw_wall_strain(s, fl, i, Lw, nrm));
     for (int q = 0; q < 3; ++q) af[3 * i + q] += acc[q];
     if (edot) edot[i] += de;
-    if (rdot) rdot[i] += rho_i * drho;
+    /* with the wall gradient sph's rho_dot = -rho tr(L + L_wall) already holds this term */
+    if (rdot && !s->grad) rdot[i] += rho_i * drho;
     s->f_dt[i] = dt;
     const ej_real m = mf[i];
     s->f_power[i] = m * (vf[3 * i] * acc[0] + vf[3 * i + 1] * acc[1] + vf[3 * i + 2] * acc[2] + (edot ? de : 0));
@@ -388,11 +409,12 @@ static ej_err sw_compute(void *state, ej_set *a, ej_set *b, const ej_nbr *ab, in
 {
   sw_state *s = state;
   if (a == s->fluid) {
+    if (pass < 0) return s->grad ? sw_grad_pass(s, a, b, ab, r) : EJ_OK;
     if (pass != 1) return EJ_OK;
     EJ_ENSURE(ej_set_count(a) == s->n_fluid, EJ_ERR_INTERNAL, "sph_wall: set '%s' changed size", ej_set_name(a));
     return sw_fluid_pass(s, a, b, ab, r);
   }
-  if (pass != 0) return EJ_OK;
+  if (pass != 0) return EJ_OK; /* the pre-pass has nothing to do on the wall side */
   if (ej_set_count_all(a) != ej_set_count(a))
     EJ_FAIL(EJ_ERR_INPUT,
             "sph_wall: wall set '%s' has %d ghost particles (symmetry or periodic boundaries): restrict those "
@@ -464,6 +486,7 @@ static const ej_interaction_ops sw_ops = {
     .post_step = sw_post_step,
     .report = sw_report,
     .n_sets = 2,
+    .n_pre_passes = 1,
 };
 
 static ej_err sw_register(ej_registry *reg) { return ej_register_interaction(reg, &sw_ops); }

@@ -31,6 +31,7 @@ typedef struct sph_config {
   int shape_form;
   int shape_viscosity;
   int shape_energy;
+  int shape_continuity;
   ej_real shape_rcond_min;
   ej_real h_factor;
   bool variable_h;
@@ -44,6 +45,7 @@ typedef struct sph_config {
   ej_real art_eps, art_n;
   ej_real xsph;
   int geometry; /* SPH_GEOM_*: planar, or 1D spherical (x = r) */
+  int spherical_energy; /* geometry: spherical: 0 local pdV form, 1 exact pair form away from the axis */
 } sph_config;
 
 static const char *const sph_kernel_names[] = {"cubic_spline", "wendland_c2", NULL};
@@ -59,10 +61,13 @@ enum { SPH_SHAPE_VISC_KERNEL = 0, SPH_SHAPE_VISC_SHAPE = 1 };
 static const char *const sph_shape_visc_names[] = {"kernel", "shape", NULL};
 enum { SPH_SHAPE_ENERGY_OWN = 0, SPH_SHAPE_ENERGY_SYMMETRIC = 1 };
 static const char *const sph_shape_energy_names[] = {"own", "symmetric", NULL};
+enum { SPH_SHAPE_CONT_OWN = 0, SPH_SHAPE_CONT_SYMMETRIC = 1 };
+static const char *const sph_shape_cont_names[] = {"own", "symmetric", NULL};
 enum { SPH_RATE_HW = 0, SPH_RATE_JAUMANN = 1 };
 static const char *const sph_stress_rate_names[] = {"hughes_winget", "jaumann", NULL};
 enum { SPH_GEOM_PLANAR = 0, SPH_GEOM_SPHERICAL = 1 };
 static const char *const sph_geometry_names[] = {"planar", "spherical", NULL};
+static const char *const sph_spherical_energy_names[] = {"local", "pair", NULL};
 #define SPH_MAX_HIST 16
 
 static const ej_param sph_params[] = {
@@ -104,6 +109,12 @@ static const ej_param sph_params[] = {
                   "(de_i/dt = sum_j m_j p_i/rho_i^2 v_ij.G_ij: follows particle i's own compression, e cannot "
                   "change sign by it) or symmetric (1/2 sum_j m_j (p_i/rho_i^2 + p_j/rho_j^2) v_ij.G_ij, 000 "
                   "Eq 36 with its erratum). Both conserve total energy exactly."),
+    EJ_PARAM_ENUM(sph_config, shape_continuity, sph_shape_cont_names, "symmetric",
+                  "With gradient: shape_tensor, shape_form: symmetric: gradient of the continuity equation, own "
+                  "(g_i = w_ij M_i^-1 x_ij, 000 Eq 34) or symmetric (G_ij = (g_i + g_j)/2, the gradient of the "
+                  "momentum and energy equations, with the matching (p_i + p_j)/(rho_i rho_j) pressure term in the "
+                  "volume form: with shape_energy own, de_i/dt = p_i/rho_i^2 drho_i/dt for every row, no entropy "
+                  "change without viscosity; README \"Compatible continuity\")."),
     EJ_PARAM_REAL(sph_config, shape_rcond_min, "1", 0.02, 0.0, 1.0 / 3.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Smallest reciprocal condition estimate 1/(|M|_F |M^-1|_F) of a particle's shape tensor "
                   "(1/3 for an isotropic neighbourhood) below which it falls back to the kernel gradient "
@@ -158,6 +169,10 @@ static const ej_param sph_params[] = {
                   "planar, or spherical (dimension: 1 only): x is the radius r >= 0 of a spherically symmetric "
                   "flow, m the true shell mass, the 1D sums use the line mass m/(4 pi r^2) and the divergence "
                   "gets its 2v/r part (README \"Spherical symmetry\"; needs a symmetry plane at x = 0)."),
+    EJ_PARAM_ENUM(sph_config, spherical_energy, sph_spherical_energy_names, "local",
+                  "geometry: spherical: pdV work in the local form -2 (p/rho) v/r (local) or, for particles at "
+                  "r >= 4 h, in the pair form that conserves energy exactly with the momentum equation (pair; "
+                  "coupled sets then need it on both sides; README \"Spherical symmetry\")."),
     {0}};
 
 typedef struct sph_state {
@@ -259,6 +274,9 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
          .doc = "1 once the strength model reported failure (no shear, no tension afterwards)."},
         {.name = "v_xsph", .kind = EJ_VEC3, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "m/s",
          .doc = "XSPH velocity correction eps sum_j (m_j/rhobar_ij) (v_j - v_i) W_ij (xsph > 0)."},
+        {.name = "L_wall", .kind = EJ_TENSOR9, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "1/s",
+         .doc = "Velocity gradient from wall interactions (sph_wall fills it before the stress pass; zero "
+                "without walls), added to L_i before the material update."},
     };
     for (size_t k = 0; k < sizeof solid / sizeof solid[0]; ++k) EJ_TRY(ej_decl_field(d, &solid[k]));
   }
@@ -267,6 +285,14 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
         .name = "m_line", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "kg/m^2",
         .doc = "geometry: spherical: line mass m/(4 pi r^2) that the 1D sums use in place of m (pass 0)."};
     EJ_TRY(ej_decl_field(d, &geom));
+    if (cfg->spherical_energy == 1) {
+      /* its presence tells `continuum` to use the pair form u_ij on its cross-set pairs too */
+      static const ej_field_decl pairf = {
+          .name = "pdv_pair", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "1",
+          .doc = "spherical_energy: pair: 1 where the particle took the exact pair form of the pdV work (r >= 4 h), "
+                 "0 where the local form (last step)."};
+      EJ_TRY(ej_decl_field(d, &pairf));
+    }
   }
   EJ_TRY(ej_decl_neighbours(d, EJ_NBR_CURRENT));
   return EJ_OK;
@@ -527,6 +553,7 @@ typedef struct sph_pair_args {
   const int32_t *fb;
   bool volume_form, renormalize, cont_rate;
   bool visc_kernel, energy_own; /* shape_form symmetric: shape_viscosity kernel, shape_energy own */
+  bool cont_sym;                /* shape_form symmetric: shape_continuity symmetric */
   const uint64_t *keep; /* shape tensor: the shape pass's masks of entries inside 2 hbar, or NULL */
   ej_real *a, *rho_dot, *e_dot, *w_dot, *mu_max;
   const ej_off *off;
@@ -955,6 +982,13 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
    * (both factors antisymmetric), so sum_ij m_i m_j (p_i/rho_i^2) v_ij.G_ij equals the symmetrised
    * sum, which is -sum_i m_i v_i.a_i of the pressure force. */
   const bool visc_kernel = shape == 2 && A->visc_kernel, energy_own = shape == 2 && A->energy_own;
+  const bool cont_sym = shape == 2 && A->cont_sym;
+  /* shape_continuity: symmetric with continuity: volume (README "Compatible continuity"): the volume form
+   * drho_i/dt = rho_i sum_j V_j v_ij.G_ij pairs with dv_i/dt = -sum_j m_j (p_i + p_j)/(rho_i rho_j) G_ij and
+   * de_i/dt = (p_i/rho_i) sum_j V_j v_ij.G_ij (Monaghan 1992 Eq 3.3's (p_i + p_j)/(rho_i rho_j) form), so that
+   * de_i/dt = p_i/rho_i^2 drho_i/dt pair by pair; momentum and energy stay exactly conserved (the coefficient
+   * V_i V_j (p_i + p_j) is symmetric, G_ij antisymmetric). */
+  const bool vol_pair = cont_sym && volume_form && (visc_kernel || energy_own);
   /* shape == 2: the neighbour's M_j^-1 (6; all 0 for a fallback row) */
   ej_real bM[6][shape == 2 ? SPH_BLK : 1];
   /* gathered neighbour data (12 KiB of stack, L1-resident); one array so that every buffer is
@@ -971,6 +1005,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
     const ej_real vi0 = v[3 * i], vi1 = dim > 1 ? v[3 * i + 1] : 0.0, vi2 = dim > 2 ? v[3 * i + 2] : 0.0;
     const ej_real rhoi = rho[i], hi = h[i], ci = c[i];
     const ej_real pri = p_rho2[i];
+    const ej_real p_over_rho_i = vol_pair ? pri * rhoi : 0.0, inv_rhoi = vol_pair ? 1.0 / rhoi : 0.0;
     /* shape tensor (as in sph_pairs): row i's M_i^-1 and fallback flag */
     const int fbi = shape ? fb[i] : 0;
     const ej_real mi0 = shape ? M[6 * i] : 0.0, mi1 = shape ? M[6 * i + 1] : 0.0, mi2 = shape ? M[6 * i + 2] : 0.0;
@@ -1062,6 +1097,9 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
             const ej_real jx = fj ? gx : tx, jy = fj ? gy : ty, jz = fj ? gz : tz;
             gx = 0.5 * (ix + jx), gy = 0.5 * (iy + jy), gz = 0.5 * (iz + jz);
             vG = (fbi && fj) ? vr * gw : vx * gx + vy * gy + vz * gz;
+            /* shape_continuity: symmetric: the continuity equation with G_ij too (a fallback row keeps
+             * the renormalised kernel divergence) */
+            if (cont_sym && !fbi) vC = vG;
           } else {
             gx = ix, gy = iy, gz = iz;
             vG = fbi ? vr * gw : vx * gx + vy * gy + vz * gz;
@@ -1075,7 +1113,10 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
         if (visc_kernel || energy_own) {
           /* pressure with G_ij; viscosity with G_ij or grad_i W_ij (radial: v_ij.grad_i W_ij >= 0 wherever
            * Pi_ij > 0, so the viscous heating is >= 0); energy 1/2 (p_i + p_j) or p_i (x2, halved below) */
-          const ej_real fp = keep ? mj * (pri + bpr[q]) : 0.0, fv = keep ? mj * pi_ij : 0.0;
+          /* vol_pair: m_j (p_i + p_j)/(rho_i rho_j) = V_j (p_i/rho_i + p_j/rho_i), V_j = m_j/rho_j = wj */
+          const ej_real fp = keep ? (vol_pair ? wj * (p_over_rho_i + bpr[q] * rhoj * rhoj * inv_rhoi) : mj * (pri + bpr[q]))
+                                  : 0.0;
+          const ej_real fv = keep ? mj * pi_ij : 0.0;
           const ej_real vx_ = visc_kernel ? kx : gx, vy_ = visc_kernel ? ky : gy, vz_ = visc_kernel ? kz : gz;
           const ej_real vV = visc_kernel ? vK : vG;
           /* a pair where both rows fell back is a plain kernel-gradient pair: exactly the kernel
@@ -1087,7 +1128,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
           ax -= plain ? fPk * gx : tx;
           if (dim > 1) ay -= plain ? fPk * gy : ty;
           if (dim > 2) az -= plain ? fPk * gz : tz;
-          const ej_real te = (energy_own ? (keep ? 2.0 * mj * pri : 0.0) : fp) * vG + fv * vV;
+          const ej_real te = (energy_own ? (keep ? 2.0 * (vol_pair ? wj * p_over_rho_i : mj * pri) : 0.0) : fp) * vG + fv * vV;
           de += plain ? fPk * vG : te;
           dw += plain ? fv * vG : fv * vV;
         } else {
@@ -1183,6 +1224,7 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
       .alpha = s->cfg.alpha, .beta = s->cfg.beta, .eta2 = s->cfg.eta * s->cfg.eta,
       .visc_kernel = s->cfg.shape_viscosity == SPH_SHAPE_VISC_KERNEL,
       .energy_own = s->cfg.shape_energy == SPH_SHAPE_ENERGY_OWN,
+      .cont_sym = s->cfg.shape_continuity == SPH_SHAPE_CONT_SYMMETRIC,
       .keep = s->keep && ej_set_count(set) <= s->keep_cap ? s->keep : NULL};
   EJ_ENSURE(A.x && A.v && A.m && A.rho && A.p_rho2 && A.c && A.h && A.w_cont && A.a && A.rho_dot && A.e_dot && A.w_dot &&
                 A.mu_max,
@@ -1418,6 +1460,7 @@ static ej_err sph_solid_stress_pass(const sph_state *s, ej_set *set, const ej_nb
   ej_real *wp_inc = ej_set_field(set, "wp_inc"), *wp_dot = ej_set_field(set, "w_plastic_dot");
   ej_real *sr2 = ej_set_field(set, "sigma_rho2"), *R = ej_set_field(set, "art_stress");
   const ej_real *L = s->cfg.correction ? ej_set_field(set, "L_corr") : NULL;
+  const ej_real *L_wall = ej_set_field(set, "L_wall"); /* filled by sph_wall's pre-pass (or zero) */
   int32_t *failed = ej_set_field_int(set, "failed");
   EJ_ENSURE(x && v && m && h && e && rho && rho_dot && p && c && stress && d_rate && c_mat && wp_inc && wp_dot &&
                 sr2 && R && failed && nbr && (!s->cfg.correction || L),
@@ -1427,6 +1470,10 @@ static ej_err sph_solid_stress_pass(const sph_state *s, ej_set *set, const ej_nb
   for (ej_idx i = r.begin; i < r.end; ++i) {
     ej_real Lv[9], W[9];
     sph_solid_velgrad(kernel, dim, x, v, m, rho, h, L, nbr->off, nbr->idx, i, Lv);
+    /* the wall's share (sph_wall, Peng et al. 2019 / digest 001 §1.10: the dummy particles enter
+     * L_i as SPH neighbours), so one material update sees the whole gradient, spin included */
+    if (L_wall)
+      for (int k = 0; k < 9; ++k) Lv[k] += L_wall[9 * (size_t)i + k];
     ej_m3_sym(d_rate + 6 * i, Lv);
     rho_dot[i] += -rho[i] * (Lv[0] + Lv[4] + Lv[8]);
     if (dt > 0.0) {
@@ -1757,6 +1804,7 @@ static ej_err sph_geom_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
   const ej_real *h = ej_set_field(set, "h");
   ej_real *rho_dot = ej_set_field(set, "rho_dot"), *e_dot = ej_set_field(set, "e_dot");
   ej_real *w_dot = ej_set_field(set, "w_visc_dot");
+  ej_real *pflag = s->cfg.spherical_energy == 1 ? ej_set_field(set, "pdv_pair") : NULL;
   EJ_ENSURE(x && v && mu && rho && pr && c && h && rho_dot && e_dot && w_dot && nbr, EJ_ERR_INTERNAL,
             "set '%s': sph spherical fields missing", s->set_name);
   const int kernel = s->cfg.kernel;
@@ -1767,6 +1815,11 @@ static ej_err sph_geom_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
     /* particles sit at x >= dx/2 (mirror ghosts of x = 0); the guard only avoids 0/0 */
     const ej_real ri = fmax(fabs(xi), 1e-9 * hi), inv_ri2 = 1.0 / (ri * ri);
     rho_dot[i] += -2.0 * rhoi * vi / ri;
+    /* away from the axis the exact pair form P_i sum_j mu_j u_ij dW_ij/dr_i (energy conserved with
+     * the momentum equation; the local form lost 19 % of a TNT charge's energy in the 1D blast,
+     * validation/charge_in_air/README.md); near the axis the local form (see above) */
+    const ej_real pexact = pflag && ri >= SPH_SPHERICAL_EXACT_R * hi ? 1.0 : 0.0;
+    if (pflag) pflag[i] = pexact;
     ej_real de = 0.0, dw = 0.0;
     for (ej_off k = nbr->off[i]; k < nbr->off[i + 1]; ++k) {
       const ej_idx j = nbr->idx[k];
@@ -1780,10 +1833,10 @@ static ej_err sph_geom_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
       const ej_real pi_ij = (-alpha * 0.5 * (ci + c[j]) * muv + beta * muv * muv) * 2.0 / (rhoi + rho[j]);
       const ej_real vij = vi - v[3 * j], u = (xi * xi * vi - xj * xj * v[3 * j]) * inv_ri2;
       const ej_real w = mu[j] * dW;
-      de += w * (0.5 * (pri - pr[j]) * vij + 0.5 * pi_ij * (u - vij));
+      de += w * (0.5 * (pri - pr[j]) * vij + (pexact * pri + 0.5 * pi_ij) * (u - vij));
       dw += w * pi_ij * (u - vij);
     }
-    e_dot[i] += de - 2.0 * pri * rhoi * vi / ri;
+    e_dot[i] += de - (1.0 - pexact) * 2.0 * pri * rhoi * vi / ri;
     w_dot[i] += 0.5 * dw;
   }
   return EJ_OK;

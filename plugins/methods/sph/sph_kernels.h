@@ -21,6 +21,12 @@ enum { SPH_KERNEL_CUBIC_SPLINE = 0, SPH_KERNEL_WENDLAND_C2 = 1 };
 
 #define SPH_PI 3.14159265358979323846
 
+/* sph geometry: spherical with spherical_energy: pair (README "Spherical symmetry"): a particle at
+ * radius |x| >= this many smoothing lengths takes the exactly conservative pair form of the pdV work (u_ij = (r_i^2 v_i -
+ * r_j^2 v_j)/r_i^2); nearer the axis the local form -2 (p/rho) v/r. `continuum` reads the same
+ * constant so that the cross-set pairs of a spherical set follow the same switch. */
+#define SPH_SPHERICAL_EXACT_R 4.0
+
 /* sigma_d of the kernel (dim 1, 2 or 3). */
 static inline ej_real sph_kernel_sigma(int kernel, int dim)
 {
