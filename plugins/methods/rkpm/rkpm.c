@@ -53,6 +53,8 @@ enum { RK_MSNNI = 0, RK_SCNI_BOX = 1, RK_DNI = 2 };
 static const char *const rk_integrations[] = {"msnni", "scni_box", "dni", NULL};
 enum { RK_STAB_MATERIAL = 0, RK_STAB_ELASTIC = 1 };
 static const char *const rk_stab_stress[] = {"material", "elastic", NULL};
+enum { RK_PART_FULL = 0, RK_PART_DEVIATORIC = 1 };
+static const char *const rk_stab_part[] = {"full", "deviatoric", NULL};
 
 #define RK_MAX_HIST 32
 #define RK_NF_MAX 36 /* face quadrature points of a nodal box (3D: 24 outer + 12 inner) */
@@ -60,6 +62,12 @@ static const char *const rk_stab_stress[] = {"material", "elastic", NULL};
 #define RK_HB_MIN 0.5 /* box edge h_L = (m/rho)^(1/dim) clamped to [RK_HB_MIN, RK_HB_MAX] h0 */
 #define RK_HB_MAX 1.2
 #define RK_FACE_RCOND 3e-2 /* smallest relative pivot of a face-point moment matrix */
+static inline ej_real rk_face_tol(ej_real tol) { return tol > RK_FACE_RCOND ? tol : RK_FACE_RCOND; }
+/* Smallest spread of a node's neighbour cloud (rk_spread) below which the node's moment matrix
+ * is not used for the Taylor form of flagged face points. Measured rk_spread, 2D lattice with
+ * support 1.75: interior 0.036, straight edge 0.024, 90 deg corner 0.017, 45 deg wedge 3.3e-3;
+ * the node that blew up in validation/penetration (45 deg, a filament of 4 nodes): 2.1e-6. */
+#define RK_SPREAD_MIN 1e-3
 #define RK_QMAX 0.6124 /* farthest face point from the node, in box edges: sqrt(6)/4 (3D) */
 #define RK_CHUNK 32    /* neighbours per chunk of the face-point sweeps (stack scratch) */
 #define RK_CHUNK2 16   /* nodes L per chunk of the force sweep (stack scratch ~32 kB) */
@@ -70,6 +78,7 @@ typedef struct rk_config {
   int integration;
   ej_real msnni_w;
   int msnni_stress;
+  int msnni_part;
   ej_real stabilization;
   ej_real rcond_min;
 } rk_config;
@@ -94,6 +103,11 @@ static const ej_param rk_params[] = {
                   "and the stabilisation stress is w (sub-box stress - node stress), so it yields with the "
                   "material; elastic = w E : (sub-box - box strain increment) with the initial elastic "
                   "moduli, no yield limit (Lagrangian formulation and EOS-only fluids: always elastic)."),
+    EJ_PARAM_ENUM(rk_config, msnni_part, rk_stab_part, "deviatoric",
+                  "Which part of the sub-box strain difference the MSNNI stabilisation resists: deviatoric = the "
+                  "sub-boxes take the node's volumetric strain rate and the stabilisation stress is deviatoric "
+                  "(B-bar-like; the volumetric part locked isochoric plastic flow: validation/sphere_drop); "
+                  "full = 003 Eq 46 literally (volumetric and deviatoric). EOS-only fluids always use full."),
     EJ_PARAM_REAL(rk_config, stabilization, "1", 0.1, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Coefficient of the pairwise stabilisation of nodal integration: damps the part of the "
                   "relative velocity of two nodes that the nodal velocity gradients do not explain "
@@ -119,6 +133,7 @@ typedef struct rk_state {
   bool box;          /* integration msnni or scni_box */
   bool sub;          /* msnni with w > 0: sub-box stabilisation stresses */
   bool smat;         /* sub-box stresses through the strength model (msnni_stress material) */
+  bool sdev;         /* msnni_part deviatoric: sub-box stabilisation on the deviatoric part only */
   int nf, ns, nss;   /* face points, sub-boxes, TENSOR9 fields holding the sub-box stresses */
   ej_real q[RK_NF_MAX][3];
   int fnd[RK_NF_MAX];          /* axis of the face normal */
@@ -277,13 +292,37 @@ static inline ej_real rk_root(int dim, ej_real v) { return dim == 3 ? cbrt(v) : 
 /* Inverse of the n x n (n = dim + 1 <= 4) symmetric positive definite moment matrix by
  * Cholesky. Returns 0 if a pivot falls below tol times its diagonal (singular or nearly:
  * too few neighbours, all on a line or a plane), leaving Ai untouched. */
-static inline RK_ALWAYS_INLINE int rk_inv_spd(const int n, const ej_real A[4][4], ej_real Ai[4][4], ej_real tol)
+/* Spread of the weighted neighbour cloud in units of the support, rotation invariant: with
+ * C = Cov_w((x_I - x_J)/a) (from the scaled moment matrix M: C_ab = M_ab/M_00 - M_a0 M_b0/M_00^2),
+ * q = det C / (tr C / (dim - 1))^(dim - 1), which lies between lambda_min(C)/2 and lambda_min(C)
+ * in 2D (3D: within a factor of lambda_min for one small eigenvalue); dim 1: q = C. */
+static inline RK_ALWAYS_INLINE ej_real rk_spread(const int dim, const ej_real M[4][4])
+{
+  const ej_real i0 = 1.0 / M[0][0];
+  ej_real C[3][3];
+  for (int a = 0; a < dim; ++a)
+    for (int b = 0; b < dim; ++b) C[a][b] = M[a + 1][b + 1] * i0 - M[a + 1][0] * M[b + 1][0] * i0 * i0;
+  if (dim == 1) return C[0][0];
+  if (dim == 2) {
+    const ej_real tr = C[0][0] + C[1][1];
+    return tr > 0.0 ? (C[0][0] * C[1][1] - C[0][1] * C[0][1]) / tr : 0.0;
+  }
+  const ej_real tr = 0.5 * (C[0][0] + C[1][1] + C[2][2]);
+  const ej_real det = C[0][0] * (C[1][1] * C[2][2] - C[1][2] * C[2][1]) - C[0][1] * (C[1][0] * C[2][2] - C[1][2] * C[2][0]) +
+                      C[0][2] * (C[1][0] * C[2][1] - C[1][1] * C[2][0]);
+  return tr > 0.0 ? det / (tr * tr) : 0.0;
+}
+
+static inline RK_ALWAYS_INLINE int rk_inv_spd(const int n, const ej_real A[4][4], ej_real Ai[4][4], ej_real tol,
+                                              ej_real *rpiv)
 {
   ej_real L[4][4] = {{0}}, Li[4][4] = {{0}};
+  *rpiv = 1.0; /* smallest relative pivot s_j / A_jj */
   for (int j = 0; j < n; ++j) {
     ej_real s = A[j][j];
     for (int k = 0; k < j; ++k) s -= L[j][k] * L[j][k];
     if (!(s > tol * A[j][j]) || !(s > 0.0)) return 0;
+    if (s < *rpiv * A[j][j]) *rpiv = s / A[j][j];
     L[j][j] = sqrt(s);
     const ej_real inv = 1.0 / L[j][j];
     for (int i = j + 1; i < n; ++i) {
@@ -416,6 +455,8 @@ static ej_err rk_create(const void *config, ej_set *set, const ej_model *model, 
   s->box = cfg->integration != RK_DNI;
   s->sub = cfg->integration == RK_MSNNI && cfg->msnni_w > 0.0;
   s->smat = s->sub && mat && !s->lagrangian && cfg->msnni_stress == RK_STAB_MATERIAL;
+  /* An EOS-only fluid has no shear stiffness to stabilise with: it keeps the full (bulk) form. */
+  s->sdev = s->sub && mat && cfg->msnni_part == RK_PART_DEVIATORIC;
   rk_faces_init(s);
   if (s->box && s->nf != (dim == 3 ? 36 : dim == 2 ? 12 : 3)) {
     ej_free(s);
@@ -539,6 +580,7 @@ typedef struct rk_args {
   const ej_off *off;
   const ej_idx *idx;
   ej_real tol, alpha, support;
+  ej_real ttol; /* MSNNI semi-Lagrangian: nodes with a relative pivot below ttol are marked weak (2) */
   bool lag, galerkin;
 } rk_args;
 
@@ -570,8 +612,13 @@ static inline RK_ALWAYS_INLINE void rk_moment_rows(const int dim, const rk_args 
     const ej_real M[4][4] = {{s0, s1, s2, s3}, {s1, s11, s12, s13}, {s2, s12, s22, s23}, {s3, s13, s23, s33}};
     ej_real Ai[4][4] = {{0}};
     A->rk_s[i] = s0;
-    if (rk_inv_spd(n, M, Ai, A->tol)) {
-      A->fb_step[i] = 0;
+    ej_real rpiv;
+    if (rk_inv_spd(n, M, Ai, A->tol, &rpiv)) {
+      /* Weak (2): invertible at rcond_min but with a relative pivot below the face-point
+       * tolerance, or with a cloud flat in some direction (rk_spread: the relative pivots are
+       * scale free per column and miss a noisy filament along an axis); resolved in
+       * rk_pass_moment once the face points are known (rk_taylor_guard). */
+      A->fb_step[i] = A->ttol > 0.0 && (rpiv < A->ttol || rk_spread(dim, M) < RK_SPREAD_MIN) ? 2 : 0;
     } else {
       /* Constant basis (Shepard): value phi_J / sum phi, zero gradient. A node that lost its
        * neighbours (a fragment) then carries no strain rate and no stress divergence. */
@@ -620,7 +667,7 @@ static inline RK_ALWAYS_INLINE void rk_box_moment_rows(const int dim, const rk_s
    * pivot test there sends ill-conditioned ones to the Taylor form. With the node limit 1e-6
    * (or 1e-3) the extrapolated shape functions at such points are large and a jittered (0.2 h)
    * 3D block blows up at cfl 0.25-0.4; with 3e-2 it is stable at cfl 0.5 (test_rkpm). */
-  const ej_real ftol = tol > RK_FACE_RCOND ? tol : RK_FACE_RCOND;
+  const ej_real ftol = rk_face_tol(tol);
   const ej_real *restrict q0 = s->gq[0], *restrict q1 = s->gq[1], *restrict q2 = s->gq[2];
   const int ng = s->ng;
   for (ej_idx L = rg.begin; L < rg.end; ++L) {
@@ -719,6 +766,32 @@ static inline RK_ALWAYS_INLINE void rk_box_moment_rows(const int dim, const rk_s
   }
 }
 
+/* Taylor-form guard (semi-Lagrangian MSNNI). A flagged face point (too few nodes) takes the
+ * node's first-order Taylor form, built from the node's own M^-1. When the node has itself
+ * lost its support -- a filament one node wide in a splash or along a projectile's path, its
+ * neighbours nearly on a line -- its M passes rcond_min (1e-6) but not the face tolerance:
+ * the extrapolated gradient normal to the filament is then ~ 1/pivot times too large and the
+ * node blows up within a few steps (validation/penetration, 45 deg: relative pivot 3.4e-4,
+ * cond(M) 7e5, 3 neighbours; v 30 -> -908 m/s in one frame, rho < 0, then NaN in the box
+ * size). Such a node (flagged face points and node pivot below the face tolerance) takes the
+ * constant-basis fallback of an isolated node: no gradient, no stress divergence, counted in
+ * rk_fallbacks. A weak node whose face points are all regular keeps its face-point rows. */
+static void rk_taylor_guard(const rk_state *s, rk_args *A, const int32_t *id, ej_range r)
+{
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    if (A->fb_step[i] != 2) continue;
+    if (s->fflag[id[i]] > 0) {
+      A->fb_step[i] = 1;
+      A->fb[i] += 1;
+      A->m0[i] = 1.0 / A->rk_s[i];
+      for (int d = 0; d < 3; ++d) A->m1[3 * i + d] = 0.0;
+      for (int k = 0; k < 6; ++k) A->m2[6 * i + k] = 0.0;
+    } else {
+      A->fb_step[i] = 0;
+    }
+  }
+}
+
 static ej_err rk_pass_moment(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
 {
   EJ_ENSURE(nbr && nbr->n_rows >= r.end, EJ_ERR_INTERNAL, "set '%s': rkpm neighbour list too short", s->set_name);
@@ -738,6 +811,7 @@ static ej_err rk_pass_moment(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_ran
                .off = nbr->off,
                .idx = nbr->idx,
                .tol = s->cfg.rcond_min,
+               .ttol = s->box && !s->lagrangian ? rk_face_tol(s->cfg.rcond_min) : 0.0,
                .lag = s->lagrangian};
   EJ_ENSURE(A.X && A.ra && A.m0 && A.m1 && A.m2 && A.rk_s && A.fb && A.fb_step && (!A.lag || A.ready),
             EJ_ERR_INTERNAL, "set '%s': rkpm moment fields missing", s->set_name);
@@ -755,6 +829,8 @@ static ej_err rk_pass_moment(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_ran
     EJ_ENSURE(hb, EJ_ERR_INTERNAL, "set '%s': rkpm field rk_hb missing", s->set_name);
     for (ej_idx i = r.begin; i < r.end; ++i) {
       if (id[i] < 0 || id[i] >= s->nid) return rk_bad(s, set, i, "particle id outside the setup range", id[i]);
+      /* (m/rho)^(1/dim) of a non-positive density is NaN: stop with the cause, not a NaN later. */
+      if (!s->lagrangian && !(rho[i] > 0.0)) return rk_bad(s, set, i, "density rho (box size)", rho[i]);
       sig[3 * i] = sig[3 * i + 1] = sig[3 * i + 2] = 1.0;
       hb[i] = rk_hbox(s, m[i], rho[i], vol0[i]);
     }
@@ -763,7 +839,10 @@ static ej_err rk_pass_moment(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_ran
     case 2: rk_box_moment_rows(2, s, A.X, A.ra, hb, id, A.off, A.idx, A.tol, r); break;
     default: rk_box_moment_rows(3, s, A.X, A.ra, hb, id, A.off, A.idx, A.tol, r); break;
     }
+    rk_taylor_guard(s, &A, id, r);
   }
+  for (ej_idx i = r.begin; i < r.end; ++i) /* DNI, Lagrangian: weak nodes keep their inverse */
+    if (A.fb_step[i] == 2) A.fb_step[i] = 0;
   if (A.lag) {
     /* ready is set only after the row is complete; the fallback flag of a Lagrangian node
      * stays as computed once. */
@@ -1046,7 +1125,10 @@ static inline void rk_box_close(const rk_state *s, ej_idx i, ej_idx kb, const ej
         ej_real de[6];
         ej_m3_sym(de, dGm + (size_t)(kb * RK_NS_MAX + xi) * 9);
         const ej_real tr = de[0] + de[1] + de[2];
-        for (int k = 0; k < 6; ++k) ss[xi][k] += w * dt * (2.0 * Gs * de[k] + (k < 3 ? lam * tr : 0.0));
+        if (s->sdev) /* deviatoric part only: 2 G dev(de) */
+          for (int k = 0; k < 6; ++k) ss[xi][k] += w * dt * 2.0 * Gs * (de[k] - (k < 3 ? tr / 3.0 : 0.0));
+        else
+          for (int k = 0; k < 6; ++k) ss[xi][k] += w * dt * (2.0 * Gs * de[k] + (k < 3 ? lam * tr : 0.0));
       }
       ps += ej_s6_ddot(ss[xi], dp);
       ej_real sx[9];
@@ -1101,7 +1183,13 @@ static inline void rk_box_close(const rk_state *s, ej_idx i, ej_idx kb, const ej
  * sub-box stress stays on the yield surface, so the stabilisation is bounded by the strength and
  * dissipates in plastic flow (its power goes to w_hg as before: the energy budget is exact).
  * Approximation: the sub-boxes share the node's hardening/damage history (not stored per
- * sub-box: the core has 64 fields per set). */
+ * sub-box: the core has 64 fields per set).
+ * msnni_part deviatoric (default): d_xi = d_L + dev(sym(G_xi - G_L)) and D_xi is stored trace-free,
+ * so the stabilisation resists only the deviatoric sub-box modes (B-bar-like selective treatment,
+ * Hughes IJNME 15 (1980) 1413). With the full Eq 46 the 8 sub-boxes per node each carry a
+ * volumetric constraint; under isochoric plastic flow (dp_damage with psi = 0) their pressure
+ * grows elastically (K) with no yield limit and locks the bed: validation/sphere_drop h = 300 mm,
+ * 15 ms: 3.5 mm (full) vs 13.3 mm (deviatoric). */
 #define RK_SB_NODES 8 /* nodes per sub-box material batch (stack scratch) */
 static ej_err rk_subbox_material(const rk_state *s, ej_range rb, const ej_real *sgn, const ej_real *sg,
                                  const ej_real *Gm, const ej_real *dGm, const ej_real *Qs, ej_real *const *ssf,
@@ -1128,8 +1216,16 @@ static ej_err rk_subbox_material(const rk_state *s, ej_range rb, const ej_real *
         ej_s6_rotate(t, Qs + 9 * kb, ss[xi]);
         for (int k = 0; k < 6; ++k) st[6 * j + k] = sgn[6 * kb + k] + t[k];
         const ej_real *dg = dGm + (size_t)(kb * RK_NS_MAX + xi) * 9;
-        for (int q = 0; q < 9; ++q) g[q] = Gm[9 * kb + q] + dg[q];
-        ej_m3_sym(dx + 6 * j, g);
+        if (s->sdev) { /* d_xi = d_L + dev(sym(G_xi - G_L)): the node's volumetric rate */
+          ej_real dl[6], dd6[6];
+          ej_m3_sym(dl, Gm + 9 * kb);
+          ej_m3_sym(dd6, dg);
+          const ej_real tr3 = (dd6[0] + dd6[1] + dd6[2]) / 3.0;
+          for (int k = 0; k < 6; ++k) dx[6 * j + k] = dl[k] + dd6[k] - (k < 3 ? tr3 : 0.0);
+        } else {
+          for (int q = 0; q < 9; ++q) g[q] = Gm[9 * kb + q] + dg[q];
+          ej_m3_sym(dx + 6 * j, g);
+        }
         rh[j] = rho[i], ee[j] = e[i], pp[j] = p[i], fl[j] = failed[i];
         for (int k = 0; k < nh; ++k) hv[k][j] = hsn[k][kb]; /* node history at t_n */
       }
@@ -1153,6 +1249,10 @@ static ej_err rk_subbox_material(const rk_state *s, ej_range rb, const ej_real *
       for (int xi = 0; xi < ns; ++xi) {
         const int j = (int)(i - n0) * ns + xi;
         for (int k = 0; k < 6; ++k) ss[xi][k] = dead ? 0.0 : st[6 * j + k] - sg[6 * i + k];
+        if (s->sdev) { /* keep the deviator of D_xi (a dilatant return can shift the mean stress) */
+          const ej_real tr3 = (ss[xi][0] + ss[xi][1] + ss[xi][2]) / 3.0;
+          for (int k = 0; k < 3; ++k) ss[xi][k] -= tr3;
+        }
       }
       rk_ss_put(ssf, i, ns, ss);
     }
