@@ -827,6 +827,20 @@ static int ej_set_passes(const ej_set *s)
 /* in_step: the step loop already zeroed a and the rates (in the kick-drift chunks) and applies
  * gravity and the constraints in the kick chunks (ej_kick_chunk), which saves two parallel
  * regions per step; each particle sees the same operations in the same order. */
+/* One pass of an interaction: a's ranges, then b's when the list runs both ways. */
+static ej_err ej_inter_pass(ej_sim *sim, ej_inter *in, int pass)
+{
+  ej_set_update_ghosts(in->a, sim->xforms);
+  if (in->b) ej_set_update_ghosts(in->b, sim->xforms);
+  ej_inter_ctx ic = {in, pass, false};
+  EJ_TRY(ej_for_chunks(sim, in->a, ej_inter_chunk, &ic));
+  if (in->list_ba) {
+    ej_inter_ctx rc = {in, pass, true};
+    EJ_TRY(ej_for_chunks(sim, in->b, ej_inter_chunk, &rc));
+  }
+  return EJ_OK;
+}
+
 static ej_err ej_compute_all(ej_sim *sim, bool in_step)
 {
   int max_pass = 0;
@@ -839,16 +853,7 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
   for (int k = 0; k < sim->n_inter; ++k) {
     ej_inter *in = &sim->inter[k];
     const int npre = EJ_HAS_OP(in->ops, ej_interaction_ops, n_pre_passes) ? in->ops->n_pre_passes : 0;
-    for (int pass = -npre; pass < 0; ++pass) {
-      ej_set_update_ghosts(in->a, sim->xforms);
-      if (in->b) ej_set_update_ghosts(in->b, sim->xforms);
-      ej_inter_ctx ic = {in, pass, false};
-      EJ_TRY(ej_for_chunks(sim, in->a, ej_inter_chunk, &ic));
-      if (in->list_ba) {
-        ej_inter_ctx rc = {in, pass, true};
-        EJ_TRY(ej_for_chunks(sim, in->b, ej_inter_chunk, &rc));
-      }
-    }
+    for (int pass = -npre; pass < 0; ++pass) EJ_TRY(ej_inter_pass(sim, in, pass));
   }
   for (int pass = 0; pass < max_pass; ++pass) {
     for (int i = 0; i < sim->n_sets; ++i) {
@@ -862,16 +867,7 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
   /* Interactions see both sets at t_n+1 after all their passes (plugin.h). */
   for (int k = 0; k < sim->n_inter; ++k) {
     ej_inter *in = &sim->inter[k];
-    for (int pass = 0; pass < ej_inter_passes(in); ++pass) {
-      ej_set_update_ghosts(in->a, sim->xforms);
-      if (in->b) ej_set_update_ghosts(in->b, sim->xforms);
-      ej_inter_ctx ic = {in, pass, false};
-      EJ_TRY(ej_for_chunks(sim, in->a, ej_inter_chunk, &ic));
-      if (in->list_ba) {
-        ej_inter_ctx rc = {in, pass, true};
-        EJ_TRY(ej_for_chunks(sim, in->b, ej_inter_chunk, &rc));
-      }
-    }
+    for (int pass = 0; pass < ej_inter_passes(in); ++pass) EJ_TRY(ej_inter_pass(sim, in, pass));
   }
   if (!in_step)
     for (int i = 0; i < sim->n_sets; ++i) EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_body_chunk, NULL));

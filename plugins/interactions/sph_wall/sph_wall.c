@@ -280,6 +280,21 @@ static ej_err sw_wall_pass(sw_state *s, ej_set *wall, ej_set *fl, const ej_nbr *
   return EJ_OK;
 }
 
+
+/* The geometry of a particle-wall pair: dx = x_w - x_i, dW/dr and grad_i W; false outside the
+ * support (2h) or at zero distance. */
+static inline bool sw_pair(int kernel, int dim, const ej_real *xi, const ej_real *xw, ej_real h, ej_real ih,
+                           ej_real dwfac, ej_real dx[3], ej_real *dwdr, ej_real g[3])
+{
+  for (int q = 0; q < 3; ++q) dx[q] = xw[q] - xi[q];
+  const ej_real r2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
+  if (r2 >= 4.0 * h * h || r2 <= 0) return false;
+  const ej_real rr = sqrt(r2);
+  *dwdr = dwfac * sph_kernel_df(kernel, dim, rr * ih);
+  for (int q = 0; q < 3; ++q) g[q] = -*dwdr * dx[q] / rr;
+  return true;
+}
+
 /* Pre-pass (pass -1, before sph's passes) over solid SPH particles r: the wall's share of the
  * velocity gradient, written to sph's scratch field L_wall, which sph_solid_stress_pass adds to
  * its own L_i before the single material update of the step (rate of deformation and spin):
@@ -308,12 +323,8 @@ static ej_err sw_grad_pass(const sw_state *s, ej_set *fl, ej_set *wall, const ej
     int n_wall = 0;
     for (ej_off k = fw->off[i]; k < fw->off[i + 1]; ++k) {
       const ej_idx w = fw->idx[k];
-      const ej_real dx[3] = {xw[3 * w] - xf[3 * i], xw[3 * w + 1] - xf[3 * i + 1], xw[3 * w + 2] - xf[3 * i + 2]};
-      const ej_real r2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
-      if (r2 >= 4.0 * h * h || r2 <= 0) continue;
-      const ej_real rr = sqrt(r2);
-      const ej_real dwdr = dwfac * sph_kernel_df(c->kernel, dim, rr * ih);
-      const ej_real g[3] = {-dwdr * dx[0] / rr, -dwdr * dx[1] / rr, -dwdr * dx[2] / rr}; /* grad_i W */
+      ej_real dx[3], dwdr, g[3];
+      if (!sw_pair(c->kernel, dim, xf + 3 * (size_t)i, xw + 3 * (size_t)w, h, ih, dwfac, dx, &dwdr, g)) continue;
       const ej_real dv[3] = {vw[3 * w] - vf[3 * i], vw[3 * w + 1] - vf[3 * i + 1], vw[3 * w + 2] - vf[3 * i + 2]};
       for (int a = 0; a < 3; ++a)
         for (int q = 0; q < 3; ++q) Lw[3 * a + q] += volw[w] * dv[a] * g[q];
@@ -356,12 +367,9 @@ static ej_err sw_fluid_pass(sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr 
     ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0, dt = INFINITY;
     for (ej_off k = fw->off[i]; k < fw->off[i + 1]; ++k) {
       const ej_idx w = fw->idx[k];
-      const ej_real dx[3] = {xw[3 * w] - xf[3 * i], xw[3 * w + 1] - xf[3 * i + 1], xw[3 * w + 2] - xf[3 * i + 2]};
+      ej_real dx[3], dwdr, g[3];
+      if (!sw_pair(c->kernel, dim, xf + 3 * (size_t)i, xw + 3 * (size_t)w, h, ih, dwfac, dx, &dwdr, g)) continue;
       const ej_real r2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
-      if (r2 >= 4.0 * h * h || r2 <= 0) continue;
-      const ej_real rr = sqrt(r2);
-      const ej_real dwdr = dwfac * sph_kernel_df(c->kernel, dim, rr * ih);
-      const ej_real g[3] = {-dwdr * dx[0] / rr, -dwdr * dx[1] / rr, -dwdr * dx[2] / rr}; /* grad_i W */
       const ej_real rho_w = s->w_rho[w], m_w = rho_w * volw[w];
       const ej_real *V = &s->w_vvis[3 * w];
       /* viscosity on v_i - v_w,visc (x_iw = -dx) */
