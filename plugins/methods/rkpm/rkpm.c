@@ -66,7 +66,8 @@ static inline ej_real rk_face_tol(ej_real tol) { return tol > RK_FACE_RCOND ? to
 /* Smallest spread of a node's neighbour cloud (rk_spread) below which the node's moment matrix
  * is not used for the Taylor form of flagged face points. Measured rk_spread, 2D lattice with
  * support 1.75: interior 0.036, straight edge 0.024, 90 deg corner 0.017, 45 deg wedge 3.3e-3;
- * the node that blew up in validation/penetration (45 deg, a filament of 4 nodes): 2.1e-6. */
+ * 3D lattice: interior 0.029, face 0.021, edge 0.017, corner 0.015; the node that blew up in
+ * validation/penetration (45 deg, a filament of 4 nodes): 2.1e-6. */
 #define RK_SPREAD_MIN 1e-3
 #define RK_QMAX 0.6124 /* farthest face point from the node, in box edges: sqrt(6)/4 (3D) */
 #define RK_CHUNK 32    /* neighbours per chunk of the face-point sweeps (stack scratch) */
