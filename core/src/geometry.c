@@ -490,30 +490,111 @@ static ej_err ej_points_push(ej_points *p, ej_idx *cap, const ej_real x[3], ej_r
   return EJ_OK;
 }
 
-/* One lattice of spacing s anchored at lo, enumerated over the index range covering
- * [blo, bhi]; keeps the points inside the shape whose first containing refine region is
- * `region` (-1 = none). */
+/* Region-wise spacing (docs/core.md, "Geometry"): the coarse lattice (the set's spacing)
+ * is assigned cell by cell by its site: a coarse site inside the shape and in no refine region
+ * is a particle; a coarse cell whose site lies in refine region r (the first that contains it)
+ * is given up to region r, whose lattice then fills exactly that cell (its points inside the
+ * shape). The refined zone is thus the union of the given-up coarse cells: the region boundary
+ * snaps to coarse cell faces, and coarse and fine particles tile the shape without a gap or an
+ * overlap (exactly when the coarse spacing is an integer multiple of the fine one on the cubic
+ * lattice; within one fine spacing otherwise). In the coarse cells whose site is outside the
+ * shape (cut by its surface; no coarse particle) a fine point is kept where its own first
+ * region is r. Testing the fine points against the region everywhere instead left a gap (or an
+ * overlap) of up to half a coarse spacing wherever the region boundary cut a coarse cell
+ * (validation/tlpd_refine). */
 typedef struct ej_lattice_pass {
   const ej_shape *shape;
   const ej_fill *f;
   const ej_real *lo; /* anchor */
   ej_real s;
-  int region;
+  int region; /* -1: the coarse lattice; r: refine region r's lattice */
 } ej_lattice_pass;
+
+static bool ej_lattice_hcp(const ej_fill *f) { return f->lattice == EJ_LATTICE_HCP && f->dim > 1; }
+
+/* Site (i, j, k) of the lattice of spacing s anchored at lo; the one formula for every pass,
+ * so that a site recomputed from a point is bitwise the site the coarse pass tested. */
+static void ej_lattice_site(const ej_fill *f, const ej_real *lo, ej_real s, int64_t i, int64_t j, int64_t k,
+                            ej_real x[3])
+{
+  const int dim = f->dim;
+  x[0] = x[1] = x[2] = 0;
+  if (ej_lattice_hcp(f)) {
+    /* ABAB stacking: odd rows shift half a spacing in x; odd layers shift by the
+     * centroid of a triangle, (s/2, s/(2 sqrt 3)); x shifts are taken modulo s. */
+    int odd = (int)(((j & 1) + (dim == 3 ? (k & 1) : 0)) & 1);
+    x[0] = lo[0] + ((ej_real)i + 0.5 + 0.5 * odd) * s;
+    x[1] = lo[1] + ((ej_real)j + 0.5) * (s * sqrt(3.0) / 2) + ((dim == 3 && (k & 1)) ? s / (2 * sqrt(3.0)) : 0);
+    if (dim == 3) x[2] = lo[2] + ((ej_real)k + 0.5) * (s * sqrt(2.0 / 3.0));
+  } else {
+    int64_t idx[3] = {i, j, k};
+    for (int d = 0; d < dim; ++d) x[d] = lo[d] + ((ej_real)idx[d] + 0.5) * s;
+  }
+}
+
+/* The coarse site whose cell holds x: the cubic cell by floor, the hcp Voronoi cell by the
+ * nearest site among the neighbours of the estimated index (ties: the first in index order). */
+static void ej_coarse_site(const ej_fill *f, const ej_real *lo, const ej_real x[3], ej_real c[3])
+{
+  const ej_real s = f->spacing;
+  if (!ej_lattice_hcp(f)) {
+    int64_t idx[3] = {0, 0, 0};
+    for (int d = 0; d < f->dim; ++d) idx[d] = (int64_t)fmax(0.0, floor((x[d] - lo[d]) / s));
+    ej_lattice_site(f, lo, s, idx[0], idx[1], idx[2], c);
+    return;
+  }
+  const ej_real py = s * sqrt(3.0) / 2, pz = s * sqrt(2.0 / 3.0);
+  int64_t k0 = f->dim == 3 ? (int64_t)floor((x[2] - lo[2]) / pz) : 0;
+  int64_t j0 = (int64_t)floor((x[1] - lo[1]) / py);
+  ej_real best = INFINITY;
+  for (int64_t k = k0 - 1; k <= k0 + 1; ++k) {
+    if (k < 0 || (f->dim < 3 && k != 0)) continue;
+    for (int64_t j = j0 - 1; j <= j0 + 1; ++j) {
+      if (j < 0) continue;
+      int64_t i0 = (int64_t)floor((x[0] - lo[0]) / s);
+      for (int64_t i = i0 - 1; i <= i0 + 1; ++i) {
+        if (i < 0) continue;
+        ej_real y[3];
+        ej_lattice_site(f, lo, s, i, j, k, y);
+        ej_real d2 = 0;
+        for (int d = 0; d < f->dim; ++d) d2 += (y[d] - x[d]) * (y[d] - x[d]);
+        if (d2 < best) {
+          best = d2;
+          memcpy(c, y, sizeof y);
+        }
+      }
+    }
+  }
+}
+
+/* First refine region containing x, -1 for none. */
+static int ej_region_of(const ej_fill *f, const ej_real x[3])
+{
+  for (int r = 0; r < f->n_refine; ++r)
+    if (ej_shape_contains(f->refine[r].region, x)) return r;
+  return -1;
+}
 
 static bool ej_keep(const ej_lattice_pass *L, const ej_real x[3])
 {
   if (!ej_shape_contains(L->shape, x)) return false;
-  for (int r = 0; r < L->f->n_refine; ++r)
-    if (ej_shape_contains(L->f->refine[r].region, x)) return r == L->region;
-  return L->region < 0;
+  if (L->region < 0) return ej_region_of(L->f, x) < 0;
+  ej_real c[3];
+  ej_coarse_site(L->f, L->lo, x, c);
+  /* a coarse cell whose site is outside the shape has no coarse particle to tile against (it
+   * straddles the shape's surface): there the region itself decides, so that a region reaching
+   * the surface is filled up to it */
+  if (!ej_shape_contains(L->shape, c)) return ej_region_of(L->f, x) == L->region;
+  return ej_region_of(L->f, c) == L->region;
 }
 
+/* Enumerates the lattice of L over the index range covering [blo, bhi] and keeps the points
+ * ej_keep accepts. */
 static ej_err ej_lattice_run(const ej_lattice_pass *L, const ej_real blo[3], const ej_real bhi[3], ej_points *out,
                              ej_idx *cap)
 {
   const int dim = L->f->dim;
-  const bool hcp = L->f->lattice == EJ_LATTICE_HCP && dim > 1;
+  const bool hcp = ej_lattice_hcp(L->f);
   const ej_real s = L->s;
   /* row and layer pitch */
   ej_real step[3] = {s, hcp ? s * sqrt(3.0) / 2 : s, hcp ? s * sqrt(2.0 / 3.0) : s};
@@ -536,18 +617,8 @@ static ej_err ej_lattice_run(const ej_lattice_pass *L, const ej_real blo[3], con
   for (int64_t k = i0[2]; k <= i1[2]; ++k)
     for (int64_t j = i0[1]; j <= i1[1]; ++j)
       for (int64_t i = i0[0]; i <= i1[0]; ++i) {
-        ej_real x[3] = {0, 0, 0};
-        if (hcp) {
-          /* ABAB stacking: odd rows shift half a spacing in x; odd layers shift by the
-           * centroid of a triangle, (s/2, s/(2 sqrt 3)); x shifts are taken modulo s. */
-          int odd = (int)(((j & 1) + (dim == 3 ? (k & 1) : 0)) & 1);
-          x[0] = L->lo[0] + ((ej_real)i + 0.5 + 0.5 * odd) * s;
-          x[1] = L->lo[1] + ((ej_real)j + 0.5) * step[1] + ((dim == 3 && (k & 1)) ? s / (2 * sqrt(3.0)) : 0);
-          if (dim == 3) x[2] = L->lo[2] + ((ej_real)k + 0.5) * step[2];
-        } else {
-          int64_t idx[3] = {i, j, k};
-          for (int d = 0; d < dim; ++d) x[d] = L->lo[d] + ((ej_real)idx[d] + 0.5) * s;
-        }
+        ej_real x[3];
+        ej_lattice_site(L->f, L->lo, s, i, j, k, x);
         if (ej_keep(L, x)) EJ_TRY(ej_points_push(out, cap, x, vol, s));
       }
   return EJ_OK;
@@ -567,7 +638,9 @@ ej_err ej_shape_fill(const ej_shape *shape, const ej_fill *f, ej_points *out)
   for (int r = 0; r < f->n_refine; ++r) {
     ej_real rlo[3], rhi[3];
     if (ej_shape_box(f->refine[r].region, rlo, rhi)) {
-      for (int k = 0; k < 3; ++k) rlo[k] = fmax(rlo[k], lo[k]), rhi[k] = fmin(rhi[k], hi[k]);
+      /* the given-up coarse cells reach past the region by less than one coarse spacing */
+      for (int k = 0; k < 3; ++k)
+        rlo[k] = fmax(rlo[k] - f->spacing, lo[k]), rhi[k] = fmin(rhi[k] + f->spacing, hi[k]);
     } else {
       memcpy(rlo, lo, sizeof rlo);
       memcpy(rhi, hi, sizeof rhi);

@@ -364,7 +364,9 @@ START_TEST(test_refine)
   shape_close(&r);
   shape_close(&f);
 
-  /* first region wins; a sphere region: total volume close to the box's */
+  /* first region wins, judged at the coarse site whose cell holds the particle (the region
+   * boundary snaps to coarse cell faces); a sphere region: 0.05 is a multiple of both fine
+   * spacings, so the particles still tile the box exactly */
   shape_fix r1, r2;
   shape_ok(&f, "box: {min: [0, 0], max: [1, 1]}", 2);
   shape_ok(&r1, "sphere: {center: [0.5, 0.5], radius: 0.2}", 2);
@@ -374,13 +376,118 @@ START_TEST(test_refine)
   ck_assert_int_eq(ej_shape_fill(f.shape, &fl, &p), EJ_OK);
   for (ej_idx i = 0; i < p.n; ++i) {
     const ej_real *x = &p.x[3 * i];
-    double want = ej_shape_contains(r1.shape, x) ? 0.0125 : ej_shape_contains(r2.shape, x) ? 0.025 : 0.05;
+    ej_real c[3] = {(floor(x[0] / 0.05) + 0.5) * 0.05, (floor(x[1] / 0.05) + 0.5) * 0.05, 0};
+    double want = ej_shape_contains(r1.shape, c) ? 0.0125 : ej_shape_contains(r2.shape, c) ? 0.025 : 0.05;
     ck_assert(p.spacing[i] == want);
   }
-  ck_assert(fabs(vol_sum(&p) - 1) < 0.02);
+  ck_assert(fabs(vol_sum(&p) - 1) < 1e-12);
   ej_points_free(&p);
   shape_close(&r2);
   shape_close(&r1);
+  shape_close(&f);
+}
+END_TEST
+
+/* Largest uncovered length and doubly covered length along the line through q parallel to
+ * axis a, over [0, len]: particle p covers [x_a - s/2, x_a + s/2] on that line when the line
+ * crosses its cell (|x_d - q_d| < s/2 for the other axes d). */
+static void line_cover(const ej_points *p, int dim, int a, const double q[3], double len, double *gap,
+                       double *overlap, int *n_on)
+{
+  double *lo = malloc((size_t)p->n * sizeof *lo), *hi = malloc((size_t)p->n * sizeof *hi);
+  ck_assert(lo && hi);
+  int n = 0;
+  for (ej_idx i = 0; i < p->n; ++i) {
+    const ej_real *x = &p->x[3 * i];
+    const double h = 0.5 * p->spacing[i];
+    bool on = true;
+    for (int d = 0; d < dim; ++d)
+      if (d != a && !(fabs(x[d] - q[d]) < h)) on = false;
+    if (!on) continue;
+    lo[n] = x[a] - h, hi[n] = x[a] + h;
+    ++n;
+  }
+  /* insertion sort by lower end (a few hundred intervals) */
+  for (int i = 1; i < n; ++i)
+    for (int j = i; j > 0 && lo[j] < lo[j - 1]; --j) {
+      double t0 = lo[j], t1 = hi[j];
+      lo[j] = lo[j - 1], hi[j] = hi[j - 1];
+      lo[j - 1] = t0, hi[j - 1] = t1;
+    }
+  double reach = 0, g = 0, o = 0;
+  for (int i = 0; i < n; ++i) {
+    g = fmax(g, lo[i] - reach);
+    o += fmax(0.0, fmin(reach, hi[i]) - lo[i]);
+    reach = fmax(reach, hi[i]);
+  }
+  g = fmax(g, len - reach);
+  *gap = g, *overlap = o, *n_on = n;
+  free(lo);
+  free(hi);
+}
+
+/* Issue 2: coarse 8 mm, fine 4 mm; the region's faces cut coarse cells mid-cell, one with the
+ * coarse site inside the region (0.205 in the cell [0.200, 0.208], site 0.204) and one with it
+ * outside (0.102 in [0.096, 0.104], site 0.100). The particles must tile the box: total volume
+ * to round-off, and along lines through the region neither a gap nor an overlap (testing the
+ * fine points against the region itself left a 4 mm gap past 0.204 and a 2 mm overlap at
+ * 0.102). */
+START_TEST(test_refine_tiling)
+{
+  static const char *const box[3] = {"box: {min: [0], max: [0.4]}", "box: {min: [0, 0], max: [0.4, 0.4]}",
+                                     "box: {min: [0, 0, 0], max: [0.4, 0.4, 0.4]}"};
+  static const char *const reg[3] = {"box: {min: [0.102], max: [0.205]}",
+                                     "box: {min: [0.102, 0.102], max: [0.205, 0.205]}",
+                                     "box: {min: [0.102, 0.102, 0.102], max: [0.205, 0.205, 0.205]}"};
+  for (int dim = 1; dim <= 3; ++dim) {
+    shape_fix f, r;
+    shape_ok(&f, box[dim - 1], dim);
+    shape_ok(&r, reg[dim - 1], dim);
+    ej_refine ref = {r.shape, 0.004};
+    ej_fill fl = {.dim = dim, .lattice = EJ_LATTICE_CUBIC, .spacing = 0.008, .refine = &ref, .n_refine = 1};
+    ej_points p;
+    ck_assert_int_eq(ej_shape_fill(f.shape, &fl, &p), EJ_OK);
+    const double want = pow(0.4, dim);
+    const double dv = vol_sum(&p) - want;
+    int nf = 0;
+    for (ej_idx i = 0; i < p.n; ++i) nf += p.spacing[i] == 0.004;
+    /* the refined zone is the coarse cells [0.104, 0.208] per axis: 13 cells of 2 fine ones */
+    ck_assert_int_eq(nf, (int)pow(26, dim));
+    double worst_gap = 0, worst_over = 0;
+    for (int a = 0; a < dim; ++a) {
+      const double q[3] = {0.1503, 0.1717, 0.1391};
+      double gap, over;
+      int n_on;
+      line_cover(&p, dim, a, q, 0.4, &gap, &over, &n_on);
+      ck_assert_int_gt(n_on, 0);
+      worst_gap = fmax(worst_gap, gap);
+      worst_over = fmax(worst_over, over);
+    }
+    fprintf(stderr, "refine tiling %dD: %d particles (%d fine), volume error %.2e m^%d, largest gap %.2e m, "
+                    "overlap %.2e m along lines\n", dim, (int)p.n, nf, dv, dim, worst_gap, worst_over);
+    ck_assert(fabs(dv) < 1e-12 * want);
+    ck_assert(worst_gap < 1e-12);
+    ck_assert(worst_over < 1e-12);
+    ej_points_free(&p);
+    shape_close(&r);
+    shape_close(&f);
+  }
+  /* A region reaching the shape's surface, which cuts the coarse cell [0.392, 0.400] past its
+   * site 0.396: no coarse particle there, so the fine lattice fills up to the surface (last
+   * fine cell [0.392, 0.396]) instead of stopping at the coarse face 0.392. */
+  shape_fix f, r;
+  shape_ok(&f, "box: {min: [0], max: [0.395]}", 1);
+  shape_ok(&r, "box: {min: [0.3], max: [1]}", 1);
+  ej_refine ref = {r.shape, 0.004};
+  ej_fill fl = {.dim = 1, .lattice = EJ_LATTICE_CUBIC, .spacing = 0.008, .refine = &ref, .n_refine = 1};
+  ej_points p;
+  ck_assert_int_eq(ej_shape_fill(f.shape, &fl, &p), EJ_OK);
+  double top = 0;
+  for (ej_idx i = 0; i < p.n; ++i) top = fmax(top, p.x[3 * i] + 0.5 * p.spacing[i]);
+  ck_assert(fabs(top - 0.396) < 1e-12);
+  ck_assert(fabs(vol_sum(&p) - 0.396) < 1e-12);
+  ej_points_free(&p);
+  shape_close(&r);
   shape_close(&f);
 }
 END_TEST
@@ -594,6 +701,7 @@ int main(void)
   tcase_add_test(tc, test_cubic_counts);
   tcase_add_test(tc, test_hcp);
   tcase_add_test(tc, test_refine);
+  tcase_add_test(tc, test_refine_tiling);
   tcase_add_test(tc, test_jitter);
   tcase_add_test(tc, test_fill_errors);
   suite_add_tcase(s, tc);

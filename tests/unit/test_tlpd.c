@@ -367,10 +367,10 @@ START_TEST(test_patch_refine_interface)
      * only "no worse" is asserted there (issue 4, item 3, open) */
     /* one absolute horizon across the interface (horizon_length): the ball test accepts the
      * interface rows in 2-D as well, and the corrected patch is exact (issue 4: 2-D patch) */
-    ck_assert_msg(hoff > 0.01, "%d-D, horizon_length: the uncorrected interface should carry a ghost force (%g P/dx)", dim, hoff);
+    ck_assert_msg(hoff > 1e-3, "%d-D, horizon_length: the uncorrected interface should carry a ghost force (%g P/dx)", dim, hoff);
     ck_assert_msg(hon < 1e-9, "%d-D, horizon_length: ghost force %g P/dx with the correction", dim, hon);
-    if (dim == 1) ck_assert_msg(on < 1e-9, "%d-D: ghost force %g P/dx with the correction", dim, on);
-    else ck_assert_msg(on <= off * (1 + 1e-9), "%d-D: ghost force %g P/dx with the correction, %g without", dim, on, off);
+    /* 2-D passes since the core's refine tiles the shape without the half-cell gap (geometry.c). */
+    ck_assert_msg(on < 1e-9, "%d-D: ghost force %g P/dx with the correction", dim, on);
   }
 }
 END_TEST
