@@ -13,8 +13,8 @@ Scene (`scene()`; examples/charge_in_air_1d.yaml is nc = 20): dimension 1, x = r
 digest 001 Table 1 with the A/B erratum (examples/materials/tnt_001.yaml: rho0 1630 kg/m^3, e0
 4.29 MJ/kg, D 6930 m/s), [0, r0] with r0 = (3 W/(4 pi rho0))^(1/3) = 52.7 mm for W = 1 kg, lit
 at r = 0 (programmed burn, lighting time r/D). Air: ideal gas gamma 1.4, 1.225 kg/m^3, 101325 Pa,
-[r0, L], L = 6.5 m; the same spacing dx = r0/nc in both sets (air particles 1330x lighter per unit
-volume), coupled by `continuum` (which must weigh the spherical sets' neighbours by their line
+[r0, L], L = 6.5 m; air spacing dx = r0/nc, the charge's dx/charge_refine (default 4: the
+break-out needs the fine charge, README "Break-out"), coupled by `continuum` (which must weigh the spherical sets' neighbours by their line
 mass m_line: README "Coupling"), both with `spherical_energy: pair` (the exact pdV pair form; the local
 form lost 19 % of the charge energy: README "Cause found"). Symmetry planes at r = 0 (the centre: v(0) = 0) and r = L (the
 shock reaches L after t_end). W is the charge mass as built (sum of the shell masses).
@@ -50,13 +50,17 @@ T_END = 11e-3
 EVERY = 20e-6
 
 
-def scene(nc, out="out/charge_in_air_1d.h5", t_end=T_END, every=EVERY):
+def scene(nc, out="out/charge_in_air_1d.h5", t_end=T_END, every=EVERY, charge_refine=1):
+    """nc: air spacings across r0 (dx = r0/nc); the charge's spacing is dx/charge_refine (README
+    "Break-out: the charge's resolution")."""
     r0 = (3 * W / (4 * math.pi * RHO_TNT)) ** (1 / 3)
     dx = r0 / nc
+    dxc = dx / charge_refine
     # the outer wall on a lattice line (L - r0 a whole number of spacings): otherwise the last gap
     # differs from dx and the mirror ghost pushes the end particles, which sends a 12 kPa wave inward
     Lw = r0 + dx * round((L - r0) / dx)
-    return f"""# 1 kg TNT sphere in free air, 1D spherically symmetric (validation/charge_in_air/check.py, nc = {nc}).
+    return f"""# 1 kg TNT sphere in free air, 1D spherically symmetric (validation/charge_in_air/check.py, nc = {nc},
+# charge spacing dx/{charge_refine}).
 # x is the radius; sph geometry: spherical (plugins/methods/sph/README.md "Spherical symmetry").
 # The continuum coupling of the two sets needs continuum to read the line mass m_line
 # (validation/charge_in_air/README.md "Coupling").
@@ -78,7 +82,7 @@ sets:
     h_min: 0.25
     rho_min: 1e-4
     shape: {{box: {{min: [0], max: [{r0:.12g}]}}}}
-    spacing: {dx:.12g}
+    spacing: {dxc:.12g}
   air:
     method: sph
     material: air
@@ -140,6 +144,8 @@ def main(argv=None):
     ap.add_argument("--build", default="build")
     ap.add_argument("--nc", type=int, nargs="+", default=[10, 20], help="spacings across the charge radius")
     ap.add_argument("--reuse", action="store_true")
+    ap.add_argument("--charge-refine", type=int, default=4, help="charge spacing = air spacing / this (README "
+                    "\"Break-out\"; 1: the same spacing in both sets, the runs before)")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--out", default=os.path.join(common.ROOT, "out", "charge_in_air_1d"))
     ap.add_argument("--write-example", action="store_true")
@@ -149,14 +155,15 @@ def main(argv=None):
     if a.write_example:
         path = os.path.join(common.ROOT, "examples", "charge_in_air_1d.yaml")
         with open(path, "w") as f:
-            f.write(scene(20))
+            f.write(scene(20, charge_refine=a.charge_refine))
         print("wrote", path)
         return 0
     exe = common.ejecta_binary(a.build)
     runs = {}
     for nc in a.nc:
-        name = f"charge_1d_nc{nc}"
-        h5, wall = common.run(exe, scene(nc, out=name + ".h5"), name, a.out, threads=a.threads, reuse=a.reuse)
+        name = f"charge_1d_nc{nc}" + (f"_c{a.charge_refine}" if a.charge_refine != 1 else "")
+        h5, wall = common.run(exe, scene(nc, out=name + ".h5", charge_refine=a.charge_refine), name, a.out,
+                              threads=a.threads, reuse=a.reuse)
         Wc = charge_mass(h5)
         _, t, xs, ps = analyse(h5)
         runs[nc] = dict(h5=h5, W=Wc, g=gauges(t, xs, ps, Wc), t=t, wall=wall)
@@ -185,7 +192,7 @@ def main(argv=None):
             print(f"  {g['Z']:3.1f}  {g['R']:6.3f}   {kb / 1e3:9.1f}   {g['peak'] / 1e3:9.1f}  {100 * err:+6.1f} %"
                   f"   {1e3 * ta_kb:7.3f}   {1e3 * g['ta']:7.3f}  {100 * eta:+6.1f} %   "
                   f"{verdict if nc == main_nc else '(' + verdict + ')'}")
-    figure(runs, a.nc, os.path.join(HERE, "charge_in_air_1d.png"), fd=a.fd)
+    figure(runs, a.nc, os.path.join(HERE, "charge_in_air_1d.png"), fd=a.fd, refine=a.charge_refine)
     common.energy_figure(runs[main_nc]["h5"], os.path.join(HERE, "charge_in_air_1d_energy.png"),
                          title=f"1 kg TNT in air, 1D spherical, nc = {main_nc}: energy budget")
     print(f"\n{'PASS' if ok else 'FAIL'}: peak incident overpressure within {100 * TOL:.0f} % of Kingery-Bulmash at "
@@ -193,7 +200,7 @@ def main(argv=None):
     return 0 if ok else 1
 
 
-def figure(runs, ncs, png, fd=()):
+def figure(runs, ncs, png, fd=(), refine=1):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -205,7 +212,7 @@ def figure(runs, ncs, png, fd=()):
     for nc, mk in zip(ncs, "osd^v"):
         r = runs[nc]
         ax[0].loglog([g["Z"] for g in r["g"]], [g["peak"] / 1e3 for g in r["g"]], mk, ms=7, mfc="none",
-                     label=f"ejecta sph 1D spherical, r0/dx = {nc}")
+                     label=f"ejecta sph 1D spherical, r0/dx = {nc} (charge {nc * refine})")
     for path, mk in zip(fd, "+x*12"):
         d = np.load(path)
         ax[0].loglog(d["Z"], d["peak"] / 1e3, mk, ms=8, label=f"Lagrangian FD (lagrange1d.py) {os.path.basename(path)}")
