@@ -222,6 +222,7 @@ typedef struct ej_scene {
   ej_real dt_max;               /* 0 = none */
   int64_t max_steps;            /* 0 = none */
   ej_real dt_min;               /* watchdog floor of the adaptive step; 0 = none */
+  ej_real dt_min_ratio;         /* watchdog floor relative to the first adaptive step; 0 = none */
   ej_shape *domain;             /* watchdog: particles must stay inside; NULL = anywhere */
   ej_loc domain_loc;
   /* output */
@@ -457,6 +458,7 @@ struct ej_sim {
   int n_xforms;
   /* time */
   ej_real t, dt;
+  ej_real dt_first; /* first adaptive step of this process (time.dt_min_ratio's reference); 0 before it */
   int64_t step;
   int64_t n_rebuilds;
   /* diagnostics */

@@ -16,7 +16,7 @@
 typedef struct ej_time_cfg {
   ej_real end, cfl, dt, dt_max;
   int64_t max_steps;
-  ej_real dt_min;
+  ej_real dt_min, dt_min_ratio;
 } ej_time_cfg;
 
 typedef struct ej_neigh_cfg {
@@ -42,6 +42,9 @@ static const ej_param ej_time_params[] = {
     EJ_PARAM_REAL(ej_time_cfg, dt_min, "s", 0, 0, 0, EJ_PF_HAS_MIN,
                   "Watchdog floor of the adaptive step: below it the run stops (exit 1) naming the limiting set "
                   "and particle; 0 = only a zero or non-finite step stops it."),
+    EJ_PARAM_REAL(ej_time_cfg, dt_min_ratio, "1", 1e-4, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX | EJ_PF_MAX_OPEN,
+                  "Watchdog floor relative to the run's first adaptive step (LS-DYNA's DTMIN idea): a step below "
+                  "dt_min_ratio times the first one stops the run like dt_min does; 0 = off."),
     {0}};
 
 static const ej_param ej_neigh_params[] = {
@@ -724,6 +727,7 @@ static ej_err ej_scene_parse(ej_loader *L)
   sc->dt_max = top.time.dt_max;
   sc->max_steps = top.time.max_steps;
   sc->dt_min = top.time.dt_min;
+  sc->dt_min_ratio = top.time.dt_min_ratio;
   if (sc->dt_min > 0 && (sc->dt_fixed > 0 || (sc->dt_max > 0 && sc->dt_min >= sc->dt_max))) {
     const ej_node *tn = ej_node_get(root, "time");
     return ej_error_input(ej_node_key_loc(tn, "dt_min"), "time: dt_min = %g s %s", sc->dt_min,

@@ -885,7 +885,8 @@ static ej_err ej_dt_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range
   return EJ_OK;
 }
 
-/* Watchdog on the step: it fell to zero, became non-finite or went below time.dt_min. Finds what
+/* Watchdog on the step: it fell to zero, became non-finite or went below time.dt_min or below
+ * time.dt_min_ratio times the first adaptive step. Finds what
  * limits it (serially, per particle: the run is over) and names the set and particle. */
 static ej_err ej_dt_collapse(ej_sim *sim, ej_real dt)
 {
@@ -910,9 +911,13 @@ static ej_err ej_dt_collapse(ej_sim *sim, ej_real dt)
       winter = in->ops->name, wdt = d;
   }
   ej_error_truncate(depth);
-  char why[80];
+  char why[120];
   if (isfinite(dt) && dt > 0) {
-    snprintf(why, sizeof why, "below time.dt_min = %.6g s", sc->dt_min);
+    if (dt < sc->dt_min)
+      snprintf(why, sizeof why, "below time.dt_min = %.6g s", sc->dt_min);
+    else
+      snprintf(why, sizeof why, "below time.dt_min_ratio = %.3g of the first step %.6g s", sc->dt_min_ratio,
+               sim->dt_first);
     sim->dt = dt; /* the checkpoint at the failure continues with this step */
   } else {
     snprintf(why, sizeof why, "collapsed");
@@ -954,7 +959,10 @@ static ej_err ej_next_dt(ej_sim *sim)
     dt = ej_comm_min(dt) * sc->cfl;
   }
   if (sc->dt_max > 0 && dt > sc->dt_max) dt = sc->dt_max;
-  if (!(isfinite(dt) && dt > 0) || (sc->dt_fixed <= 0 && dt < sc->dt_min)) return ej_dt_collapse(sim, dt);
+  if (sc->dt_fixed <= 0 && !(sim->dt_first > 0) && isfinite(dt) && dt > 0) sim->dt_first = dt;
+  if (!(isfinite(dt) && dt > 0) ||
+      (sc->dt_fixed <= 0 && (dt < sc->dt_min || dt < sc->dt_min_ratio * sim->dt_first)))
+    return ej_dt_collapse(sim, dt);
   sim->dt = dt;
   return EJ_OK;
 }

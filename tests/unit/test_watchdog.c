@@ -1,5 +1,6 @@
 /* Numerical-fault watchdog through the `ejecta` executable: a non-finite field, a particle
- * leaving the scene's `domain`, and the adaptive step falling below `time.dt_min`. Each run
+ * leaving the scene's `domain`, and the adaptive step falling below `time.dt_min` or below
+ * `time.dt_min_ratio` times the first step. Each run
  * stops with exit 1 and one message naming the step, the set and the particle; no file is left
  * under the output's final name, and NAME.partial keeps the state at the failure (last frame
  * and a checkpoint at the failing step) that `--restart` reads. Runs use --threads 1, so the
@@ -216,6 +217,8 @@ START_TEST(test_dt_floor)
   for (int k = 1; k < n && first < 0; ++k)
     if (dt[k] < floor_dt) first = k;
   ck_assert(first > 1);
+  /* the clean run went through with the default dt_min_ratio 1e-4: its steps stay above it */
+  ck_assert(lo > 1e-4 * dt[0]);
   snprintf(extra, sizeof extra, ", dt_min: %.17g", floor_dt);
   snprintf(text, sizeof text, head, 1000, extra, "floor.h5");
   write_scene("floor.yaml", text);
@@ -225,6 +228,12 @@ START_TEST(test_dt_floor)
   snprintf(want, sizeof want, "time step %.6g s", dt[first]);
   run("floor.yaml", err, sizeof err);
   ck_assert_msg(strstr(err, want) && strstr(err, "its stable step"), "expected '%s' in:\n%s", want, err);
+  /* The same floor as a ratio to the first step (time.dt_min_ratio) stops the same step. */
+  const double ratio = floor_dt / dt[0];
+  snprintf(extra, sizeof extra, ", dt_min_ratio: %.17g", ratio);
+  snprintf(text, sizeof text, head, 1000, extra, "ratio.h5");
+  write_scene("ratio.yaml", text);
+  expect_failure("ratio.yaml", "ratio.h5", "below time.dt_min_ratio", first - 1);
   /* Restarting without the floor continues from the failing state. */
   snprintf(text, sizeof text, head, first + 10, "", "cont.h5");
   write_scene("cont.yaml", text);
