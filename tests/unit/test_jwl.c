@@ -376,10 +376,15 @@ START_TEST(test_burn_point_and_ramp)
   ck_assert_double_eq_tol(p[4], b4 * pf[4], 1e-12 * pf[4]);
   /* the plain evaluate is the fully burnt EOS */
   ck_assert(pf[7] > 11e9);
-  /* beta burn: an unlit particle compressed halfway to V_CJ is half burnt, whatever the time;
+  /* beta burn: an unlit particle compressed halfway to V_CJ stays inert while it is more than
+   * volume_burn_lead (6) spacings ahead of the lighting front, and is half burnt within them;
    * V_CJ from the independent CJ solver below */
   const cj_state cj = cj_solve(&f, &C4_001);
   ej_real rc = 1601 / (1 - 0.5 * (1 - 1 / cj.eta)), pc, cc, pfc;
+  t = tl[19] - 6.5 * dx / D;
+  ck_assert_int_eq(f.ops->evaluate_set(f.state, s, (ej_range){19, 20}, &rc, e + 19, &pc, &cc), EJ_OK);
+  ck_assert(burn[19] == 0.0 && pc == 0.0);
+  t = tl[19] - 5.5 * dx / D;
   ck_assert_int_eq(f.ops->evaluate_set(f.state, s, (ej_range){19, 20}, &rc, e + 19, &pc, &cc), EJ_OK);
   ck_assert_int_eq(f.ops->evaluate(f.state, 1, &rc, e + 19, &pfc, NULL), EJ_OK);
   ck_assert_double_eq_tol(burn[19], 0.5, 1e-6);
@@ -399,6 +404,21 @@ START_TEST(test_burn_point_and_ramp)
   burn = ej_set_field(s, "burn");
   ck_assert_int_eq(f.ops->evaluate_set(f.state, s, (ej_range){19, 20}, &rc, e + 19, &pc, &cc), EJ_OK);
   ck_assert(burn[19] == 0.0 && pc == 0.0);
+  ej_set_destroy(s);
+  fix_close(&f);
+  /* volume_burn_lead: 0 is Wilkins' unrestricted form: half burnt at t = 0, 19 spacings ahead */
+  fix_config(&f, &C4_001);
+  fix_block(&f, "detonation", "point", pt, 3);
+  fix_block(&f, "detonation", "speed", &D, 1);
+  fix_real(&f, "volume_burn_lead", 0.0);
+  fix_create(&f);
+  t = 0;
+  s = burn_set(N, dx, &t);
+  ck_assert_int_eq(f.ops->setup(f.state, s), EJ_OK);
+  e = ej_set_field(s, "e");
+  burn = ej_set_field(s, "burn");
+  ck_assert_int_eq(f.ops->evaluate_set(f.state, s, (ej_range){19, 20}, &rc, e + 19, &pc, &cc), EJ_OK);
+  ck_assert_double_eq_tol(burn[19], 0.5, 1e-6);
   ej_set_destroy(s);
   fix_close(&f);
 }

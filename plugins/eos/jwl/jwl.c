@@ -18,7 +18,8 @@
  * Programmed burn (001 digest section 1.9, 002 digest section 5.3 [REC]): lighting time
  * t_L = min over sources of (distance / D + delay); burn fraction
  * F = clamp((t - t_L) D / (burn_width * spacing), 0, 1), raised to Wilkins' beta burn
- * (1 - V)/(1 - V_CJ) under compression (volume_burn), kept monotone; p = F p_JWL. Unburnt
+ * (1 - V)/(1 - V_CJ) under compression (volume_burn) within volume_burn_lead spacings ahead of the
+ * lighting front, kept monotone; p = F p_JWL. Unburnt
  * material is inert (p = 0) but keeps the products' sound speed, so the time step and the
  * artificial viscosity stay finite. V_CJ comes from the CJ point of the parameters (create). */
 #include <math.h>
@@ -41,6 +42,7 @@ typedef struct jwl_config {
   jwl_source detonation, detonation_2, detonation_3, detonation_4;
   ej_real burn_width, rho_min, p_min;
   bool volume_burn;
+  ej_real volume_burn_lead;
 } jwl_config;
 
 static const ej_param jwl_source_params[] = {
@@ -84,6 +86,10 @@ static const ej_param jwl_params[] = {
     EJ_PARAM_BOOL(jwl_config, volume_burn, true,
                   "Also burn compressed explosive: F >= (1 - V)/(1 - V_CJ) (Wilkins' beta burn), which keeps a "
                   "front lit at D <= D_CJ from piling up inert explosive."),
+    EJ_PARAM_REAL(jwl_config, volume_burn_lead, "1", 6, 0, 0, EJ_PF_HAS_MIN,
+                  "The beta burn acts only on explosive within this many initial spacings ahead of the lighting "
+                  "front (t >= t_L - lead dx / D), so a slight compression far from the front (air pressure on "
+                  "the charge's surface, a stress wave) does not pre-light it; 0 = anywhere (Wilkins, Radioss)."),
     EJ_PARAM_REAL(jwl_config, rho_min, "kg/m^3", 1e-3, 0, 0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN,
                   "Density below which the EOS is evaluated at rho_min (vacuum, expansion)."),
     EJ_PARAM_REAL(jwl_config, p_min, "Pa", 0, 0, 0, EJ_PF_HAS_MAX,
@@ -332,10 +338,15 @@ static ej_err jwl_evaluate_set(const void *state, ej_set *set, ej_range r, const
   const ej_real width = s->cfg.burn_width * ej_set_spacing_min(set);
   /* Ramp duration width / D: the burn front has the lighting front's speed and this thickness. */
   const ej_real rate = width > 0 ? s->speed / width : INFINITY;
+  /* the beta burn's window ahead of the lighting front: SPH's kernel push and the front's own
+   * smoothing reach a few spacings ahead (h <= 2 dx: support <= 4 dx); beyond that a compressed
+   * particle is not part of the detonation and stays inert until its lighting time */
+  const ej_real lead = s->cfg.volume_burn_lead > 0 ? s->cfg.volume_burn_lead * ej_set_spacing_min(set) / s->speed
+                                                   : INFINITY;
   for (ej_idx k = 0; k < n; ++k) {
     const ej_idx i = r.begin + k;
     ej_real F = t >= tl[i] ? (t - tl[i]) * rate : 0.0;
-    if (s->cfg.volume_burn && rho[k] > s->cfg.rho0) {
+    if (s->cfg.volume_burn && rho[k] > s->cfg.rho0 && t >= tl[i] - lead) {
       /* Wilkins' beta burn (M. L. Wilkins, Methods Comput. Phys. 3 (1964) 211; Radioss
        * /MAT/LAW5 IBFRAC = 0, "volumetric compression + burning time"): compression to V_CJ
        * burns completely. Inert explosive (p = 0) ahead of a front lit at D <= D_CJ is otherwise
