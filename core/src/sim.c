@@ -163,6 +163,28 @@ static void ej_prof_print(int64_t steps, double loop, double par)
           t2c > 0 ? loop / t2c : 0, t2 > 0 ? loop / t2 : 0, f * loop);
 }
 
+#ifdef _OPENMP
+/* The chunk loops' schedule from OMP_SCHEDULE ("static", "dynamic,4", "guided", modifiers such as
+ * "nonmonotonic:" ignored), read at every run rather than once by the OpenMP runtime, so that a
+ * program running several simulations sees a change; unset or unknown: dynamic, 1. */
+static void ej_set_chunk_schedule(const char *env)
+{
+  omp_sched_t kind = omp_sched_dynamic;
+  int chunk = 1;
+  if (env && *env) {
+    const char *colon = strchr(env, ':');
+    const char *k = colon ? colon + 1 : env;
+    while (*k == ' ') ++k;
+    if (strncmp(k, "static", 6) == 0) kind = omp_sched_static, chunk = 0;
+    else if (strncmp(k, "guided", 6) == 0) kind = omp_sched_guided;
+    else if (strncmp(k, "auto", 4) == 0) kind = omp_sched_auto;
+    const char *comma = strchr(k, ',');
+    if (comma && atoi(comma + 1) > 0) chunk = atoi(comma + 1);
+  }
+  omp_set_schedule(kind, chunk);
+}
+#endif
+
 /* Runs fn over the owned particles of s in chunks; the first error (lowest chunk) wins. */
 static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
 {
@@ -171,7 +193,7 @@ static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
   ej_error_frame frames[EJ_ERROR_MAX_FRAMES];
   int nframes = 0;
   const double t_prof = sim->profile ? ej_thread_cpu() : 0, w_prof = ej_prof.level > 1 ? ej_wall() : 0;
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(runtime)
   for (int64_t c = 0; c < nch; ++c) {
     int64_t seen;
 #pragma omp atomic read
@@ -1360,6 +1382,13 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
     omp_set_num_threads(opts->threads);
 #endif
   }
+#ifdef _OPENMP
+  /* The chunk loops (ej_for_chunks) take OpenMP's runtime schedule: dynamic, 1 chunk at a time
+   * unless the user sets OMP_SCHEDULE (e.g. "static": each thread keeps the same contiguous
+   * chunks in every pass, so their particles stay in its cache). Results do not depend on it:
+   * every chunk computes the same values whichever thread runs it. */
+  ej_set_chunk_schedule(getenv("OMP_SCHEDULE"));
+#endif
   sim->progress = opts && opts->progress;
   {
     const char *prof = getenv("EJECTA_PROFILE");

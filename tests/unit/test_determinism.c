@@ -96,10 +96,17 @@ START_TEST(test_threads_bitwise)
   det_run(dir, "t2.h5", 2, DET_STEPS, NULL, &b);
   ck_assert_int_gt(a.n, 1024); /* more than one chunk of particles per thread */
   snap_assert_equal(&a, &b, "1 vs 2 threads");
+  /* the chunk-to-thread schedule (OMP_SCHEDULE, read when the run starts) changes nothing */
+  snap c;
+  ck_assert_int_eq(setenv("OMP_SCHEDULE", "static", 1), 0);
+  det_run(dir, "t3.h5", 2, DET_STEPS, NULL, &c);
+  ck_assert_int_eq(unsetenv("OMP_SCHEDULE"), 0);
+  snap_assert_equal(&a, &c, "1 thread vs 2 threads with OMP_SCHEDULE=static");
   snap_free(&a);
   snap_free(&b);
-  const char *names[] = {"tube.yaml", "t1.h5", "t1.xdmf", "t2.h5", "t2.xdmf"};
-  vrun_cleanup(dir, names, 5);
+  snap_free(&c);
+  const char *names[] = {"tube.yaml", "t1.h5", "t1.xdmf", "t2.h5", "t2.xdmf", "t3.h5", "t3.xdmf"};
+  vrun_cleanup(dir, names, 7);
 }
 END_TEST
 
