@@ -41,9 +41,10 @@ static ej_set *imp_set(vscene *c, const char *name)
 }
 
 /* Runs one case; returns T and R relative to the exact incident stress -Z1 v0 / 2. */
-static void imp_case(double rho2, double K2, const char *pair_stress, double *T, double *R)
+static void imp_case_dx(double rho2, double K2, const char *pair_stress, double dx, double fluid_h, double hg_coef,
+                        double *T, double *R)
 {
-  const double dx = 1e-3, v0 = 1.0, W = 0.1, xc = 0.35;
+  const double v0 = 1.0, W = 0.1, xc = 0.35;
   const double c1 = sqrt(1e9 / 2000.0), c2 = sqrt(K2 / rho2), Z1 = sqrt(1e9 * 2000.0);
   const double t_hit = 0.15 / c1, t_end = fmin(t_hit + 0.2 / c2, t_hit + 0.12 / c1);
   static char init[16384];
@@ -62,11 +63,12 @@ static void imp_case(double rho2, double K2, const char *pair_stress, double *T,
                        "materials:\n  rock: {model: elastic, rho0: 2000, E: 1e9, nu: 0.0}\n"
                        "  fluid: {rho0: %g, eos: {model: polynomial, rho0: %g, C1: %g}}\n"
                        "sets:\n  bar:\n    method: tlpd\n    material: rock\n    shape: {box: {min: [0], max: [0.5]}}\n"
-                       "    spacing: %g\n    initial:\n%s"
+                       "    hourglass_coefficient: %g\n    spacing: %g\n    initial:\n%s"
                        "  fluid:\n    method: sph\n    material: fluid\n    alpha: 0\n    beta: 0\n"
-                       "    renormalize: false\n    shape: {box: {min: [0.5], max: [1.0]}}\n    spacing: %g\n"
+                       "    renormalize: false\n    h_factor: %g\n    shape: {box: {min: [0.5], max: [1.0]}}\n"
+                       "    spacing: %g\n"
                        "interactions:\n  - {model: pd_sph, sets: [bar, fluid], alpha: 0, beta: 0, pair_stress: %s}\n",
-                       t_end, rho2, rho2, K2, dx, init, dx, pair_stress);
+                       t_end, rho2, rho2, K2, hg_coef, dx, init, fluid_h, dx, pair_stress);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
   vrun_run(&c.r);
@@ -82,12 +84,45 @@ static void imp_case(double rho2, double K2, const char *pair_stress, double *T,
   *T = st / sig_i;
   *R = sr / sig_i;
   const double Z2 = sqrt(K2 * rho2), Te = 2 * Z2 / (Z1 + Z2), Re = (Z2 - Z1) / (Z1 + Z2);
-  fprintf(stderr, "pair_stress %-5s Z2/Z1 = %.3f: T = %.4f (exact %.4f, %+.2f %%), R = %.4f (exact %.4f, %+.2f %%)\n",
-          pair_stress, Z2 / Z1, *T, Te, 100 * (*T / Te - 1), *R, Re, 100 * (*R / Re - 1));
+  fprintf(stderr,
+          "pair_stress %-5s dx %g mm, fluid h %g dx: Z2/Z1 = %.3f: T = %.4f (exact %.4f, %+.2f %%), R = %.4f (exact "
+          "%.4f, %+.2f %%)\n",
+          pair_stress, 1e3 * dx, fluid_h > 0 ? fluid_h : 2.0, Z2 / Z1, *T, Te, 100 * (*T / Te - 1), *R, Re,
+          100 * (*R / Re - 1));
   *T /= Te;
   *R /= Re;
   vscene_free(&c);
 }
+
+/* the 1 mm case with the sph default h (2 dx in 1D) */
+static void imp_case(double rho2, double K2, const char *pair_stress, double *T, double *R)
+{
+  imp_case_dx(rho2, K2, pair_stress, 1e-3, 0.0, 0.01, T, R);
+}
+
+/* The 3D slab's failure at 2 mm (validation README: R -6.17 % at Z2/Z1 = 2.83, 50 spacings per
+ * pulse width) in 1D: it is the fluid's smoothing length at the interface (the sph 3D default
+ * 1.3 dx), not the dimension. Same 2 mm bar, fluid h = 2 dx (the 1D default) passes, h = 1.3 dx
+ * fails on the reflected peak (measured -7.48 %) while the pulse areas agree (README). Pinned:
+ * a change of the interface zone that mends it makes this test fail, and the READMEs must follow. */
+START_TEST(test_impedance_fluid_h_2mm)
+{
+  double T, R;
+  imp_case_dx(4000.0, 4e9, "owned", 2e-3, 2.0, 0.01, &T, &R);
+  ck_assert_double_lt(fabs(T - 1), 0.03);
+  ck_assert_double_lt(fabs(R - 1), 0.03);
+  imp_case_dx(4000.0, 4e9, "owned", 2e-3, 1.3, 0.01, &T, &R);
+  /* measured -7.48 % of the exact R (check.py, against the measured incident: -6.96 %) */
+  ck_assert_double_lt(R - 1, -0.05);
+  ck_assert_double_gt(R - 1, -0.09);
+  /* the mechanism (README): the interface's per-layer force residual excites the zero-energy
+   * modes of the PD surface layers; a 5x stiffer hourglass penalty (diagnostic only: 002's
+   * reference is 0.01) brings the same case within 3 % (measured T -1.17 %, R +0.22 %) */
+  imp_case_dx(4000.0, 4e9, "owned", 2e-3, 1.3, 0.05, &T, &R);
+  ck_assert_double_lt(fabs(T - 1), 0.03);
+  ck_assert_double_lt(fabs(R - 1), 0.03);
+}
+END_TEST
 
 START_TEST(test_impedance_owned)
 {
@@ -119,6 +154,7 @@ static Suite *imp_suite(void)
   tcase_set_timeout(tc, 120);
   tcase_add_test(tc, test_impedance_owned);
   tcase_add_test(tc, test_impedance_other_weights_fail);
+  tcase_add_test(tc, test_impedance_fluid_h_2mm);
   suite_add_tcase(s, tc);
   return s;
 }
