@@ -82,6 +82,41 @@ START_TEST(test_rate_factor)
 }
 END_TEST
 
+/* rate: total: pure shear at a total equivalent strain rate of 1000/s: the elastic limit and every
+ * plastic step carry the rate factor of the TOTAL rate 1 + C ln 1000 (first yield at
+ * A (1 + C ln 1000) instead of A), whereas the plastic-rate default yields first at A */
+START_TEST(test_rate_total)
+{
+  const double dt = 1e-6, gdot = 1000 * sqrt(3.0) / 2; /* epsdot_eq = 2/sqrt3 gdot = 1000/s */
+  const ej_real d[6] = {0, 0, 0, gdot, 0, 0};
+  double first[2] = {0, 0};
+  for (int mode = 0; mode < 2; ++mode) {
+    mpd m;
+    jc_open(&m, C_, 0);
+    if (mode == 1) mpd_set_enum(&m, "rate", "total");
+    mpd_create(&m);
+    for (int n = 1; n <= 400; ++n) {
+      const double ep0 = mpd_hist(&m, "eps_p"), s0 = sqrt(3.0) * m.stress[3];
+      ck_assert_int_eq(mpd_step(&m, d, dt), EJ_OK);
+      const double dep = mpd_hist(&m, "eps_p") - ep0;
+      if (dep > 0 && mode == 1) {
+        const double seq = sqrt(3.0) * m.stress[3];
+        const double ex = (A_ + B_ * pow(ep0 + dep, N_)) * (1 + C_ * log(1000.0));
+        ck_assert_msg(mpd_relerr(seq, ex) < 1e-9, "step %d: %.12g vs %.12g", n, seq, ex);
+      }
+      if (dep > 0 && ep0 == 0) first[mode] = s0; /* the last elastic state */
+    }
+    mpd_close(&m);
+  }
+  /* the last elastic equivalent stress before the first plastic step lies within one elastic
+   * increment (3G 1000/s dt = 0.24 MPa) below the elastic limit */
+  const double inc = 3 * G_ * 1000 * dt, lim_tot = A_ * (1 + C_ * log(1000.0));
+  ck_assert_msg(first[0] <= A_ && first[0] > A_ - inc, "plastic-rate first yield near %g (A %g)", first[0], A_);
+  ck_assert_msg(first[1] <= lim_tot && first[1] > lim_tot - inc, "total-rate first yield near %g (%g)", first[1],
+                lim_tot);
+}
+END_TEST
+
 /* thermal softening at T0 = 800 K (isothermal): first yield in uniaxial stress at
  * A (1 - T*^m), T* = 507/1518; adiabatic heating: T - T0 = chi W_p / cp */
 START_TEST(test_temperature)
@@ -166,6 +201,7 @@ int main(void)
   TCase *tc = tcase_create("paths");
   tcase_add_test(tc, test_hardening_curve);
   tcase_add_test(tc, test_rate_factor);
+  tcase_add_test(tc, test_rate_total);
   tcase_add_test(tc, test_temperature);
   tcase_add_test(tc, test_failure);
   suite_add_tcase(s, tc);

@@ -9,7 +9,12 @@
  * - a Drucker-Prager block sliding on a no-slip floor under gravity and settling: the energy budget
  *   closes with the plastic work booked by sph (one material update per step, the wall's L_wall in
  *   it), and the run is bitwise identical on 1 and 2 threads;
- * - a wall set with ghost particles is refused with a message. */
+ * - a wall set with ghost particles is refused with a message;
+ * - viscosity_velocity: wall: the wall pairs' Monaghan viscosity of a liquid block driven onto
+ *   the floor equals the sum on v_i - v_w (the wall's own velocity) for free and no slip; the
+ *   default (extrapolated) gives no viscous wall term for free slip and the larger Adami Eq 23
+ *   term (v_i - (2 v_w - v~_w)) for no slip; a slab sliding on a free-slip floor keeps its speed
+ *   with wall_normal (normal part only) and is slowed by wall (the oblique pairs act as friction). */
 #include <check.h>
 #include <hdf5.h>
 #include <stdarg.h>
@@ -20,6 +25,7 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "../../plugins/methods/sph/sph_kernels.h"
 #include "validation_common.h"
 
 const ej_plugin_info *ej_plugin_sph_wall_info(void);
@@ -417,6 +423,98 @@ START_TEST(test_wall_ghosts_refused)
 }
 END_TEST
 
+/* One step (fixed dt 1e-7 s) of a 5 x 5 liquid block moving at -1 m/s onto a floor at rest;
+ * returns the set's velocities (n x 3, caller frees) and fills the fields of the expected
+ * viscous acceleration on v_i - v_w (wall at rest: v_i) when ref != NULL. */
+#define VV_DT 1e-7
+static double *visc_step(const char *slip, const char *vvel, double alpha, double beta, ej_idx *n, double **ref)
+{
+  wrun c;
+  ej_err rc = wrun_open(&c,
+                        "ejecta: 1\ndimension: 2\ntime: {end: %g, dt: %g}\noutput: {file: %s}\n"
+                        "materials:\n  water: {rho0: 1000, eos: {model: polynomial, rho0: 1000, C1: 2e5}}\n"
+                        "  wallmat: {rho0: 1000}\n"
+                        "sets:\n  fluid: {method: sph, material: water, kernel: wendland_c2, renormalize: false, "
+                        "alpha: 0, beta: 0,\n         shape: {box: {min: [0, 0], max: [0.05, 0.05]}}, spacing: 0.01, "
+                        "velocity: [0, -1]}\n"
+                        "  wall: {method: rigid_body, material: wallmat, fix_translation: [1, 1, 1], fix_rotation: "
+                        "[1, 1, 1],\n         shape: {box: {min: [-0.05, -0.03], max: [0.1, 0]}}, spacing: 0.01}\n"
+                        "interactions:\n  - {model: sph_wall, sets: [fluid, wall], kernel: wendland_c2, slip: %s, "
+                        "density: rest, alpha: %g, beta: %g, eta: 0.1, viscosity_velocity: %s}\n",
+                        VV_DT, VV_DT, "out.h5", slip, alpha, beta, vvel);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  wrun_go(&c);
+  ck_assert_int_eq((int)c.r.sim->step, 1);
+  ej_set *f = wrun_set(&c, "fluid"), *w = wrun_set(&c, "wall");
+  *n = f->n;
+  double *v = malloc(3 * sizeof(double) * (size_t)f->n);
+  ck_assert_ptr_nonnull(v);
+  const ej_real *vf = ej_set_field(f, "v");
+  for (ej_idx i = 0; i < 3 * f->n; ++i) v[i] = vf[i];
+  if (ref) {
+    /* a_i = -sum_w m_w Pi_iw grad_i W, Pi = (-alpha c_i mu + beta mu^2) / ((rho_i + rho_w)/2),
+     * mu = h_i (v_i - v_w) . (x_i - x_w) / (r^2 + eta^2 h_i^2) when negative; m_w = rho0 vol0_w */
+    const ej_real *x = ej_set_field(f, "x"), *h = ej_set_field(f, "h"), *rho = ej_set_field(f, "rho");
+    const ej_real *cs = ej_set_field(f, "c"), *xw = ej_set_field(w, "x"), *vol = ej_set_field(w, "vol0");
+    *ref = calloc(3 * (size_t)f->n, sizeof(double));
+    ck_assert_ptr_nonnull(*ref);
+    for (ej_idx i = 0; i < f->n; ++i)
+      for (ej_idx k = 0; k < w->n; ++k) {
+        const double d[2] = {x[3 * i] - xw[3 * k], x[3 * i + 1] - xw[3 * k + 1]}, r = hypot(d[0], d[1]);
+        if (r >= 2 * h[i]) continue;
+        const double vx = vf[3 * i] * d[0] + vf[3 * i + 1] * d[1];
+        if (vx >= 0) continue;
+        const double mu = h[i] * vx / (r * r + 0.01 * h[i] * h[i]);
+        const double pi = (-alpha * cs[i] * mu + beta * mu * mu) / (0.5 * (rho[i] + 1000.0));
+        const double dwdr = sph_kernel_dw(SPH_KERNEL_WENDLAND_C2, 2, r, h[i]);
+        for (int q = 0; q < 2; ++q) (*ref)[3 * i + q] -= 1000.0 * vol[k] * pi * dwdr * d[q] / r;
+      }
+  }
+  vscene_free(&c);
+  return v;
+}
+
+START_TEST(test_viscosity_velocity)
+{
+  ej_idx n = 0;
+  double *ref = NULL;
+  double *v_free0 = visc_step("free_slip", "extrapolated", 1, 10, &n, NULL);
+  double *v_none = visc_step("free_slip", "extrapolated", 0, 0, &n, NULL);
+  double *v_free = visc_step("free_slip", "wall", 1, 10, &n, &ref);
+  double *v_no = visc_step("no_slip", "wall", 1, 10, &n, NULL);
+  double *v_no0 = visc_step("no_slip", "extrapolated", 1, 10, &n, NULL);
+  double amax = 0, err = 0, err_slip = 0, d_free0 = 0, a_no0 = 0, a_free = 0;
+  for (ej_idx i = 0; i < n; ++i)
+    for (int q = 0; q < 2; ++q) {
+      const ej_idx j = 3 * i + q;
+      const double a = (v_free[j] - v_none[j]) / VV_DT; /* velocity Verlet: mean of the step's two evaluations */
+      amax = fmax(amax, fabs(ref[j]));
+      err = fmax(err, fabs(a - ref[j]));
+      err_slip = fmax(err_slip, fabs(v_no[j] - v_free[j]) / VV_DT);
+      d_free0 = fmax(d_free0, fabs(v_free0[j] - v_none[j]) / VV_DT);
+      if (q == 1) a_no0 = fmax(a_no0, (v_no0[j] - v_none[j]) / VV_DT), a_free = fmax(a_free, a);
+    }
+  fprintf(stderr,
+          "wall viscosity, liquid block at -1 m/s onto the floor: |a_visc| max %.4g m/s^2 (expected on v_i - v_w); "
+          "error %.3g; no_slip - free_slip (wall) %.3g; free_slip extrapolated %.3g; no_slip extrapolated "
+          "max a_y %.4g vs wall %.4g\n",
+          amax, err, err_slip, d_free0, a_no0, a_free);
+  ck_assert_double_gt(amax, 1.0);
+  ck_assert_double_lt(err, 1e-3 * amax);      /* the term on v_i - v_w, both slips */
+  ck_assert_double_lt(err_slip, 1e-6 * amax);  /* a liquid: the mirrored stress is the same pressure */
+  ck_assert_double_lt(d_free0, 1e-6 * amax);   /* default free slip: no viscous wall term */
+  ck_assert_double_gt(a_no0, 1.5 * a_free);     /* Adami Eq 23 velocity: twice the relative velocity */
+  free(v_free0), free(v_none), free(v_free), free(v_no), free(v_no0), free(ref);
+  /* tangential sliding on a free-slip floor: the viscosity on v_i - v_w acts as friction (oblique
+   * pairs ahead of each particle approach it), wall_normal damps only n.(v_i - v_w): no friction */
+  const double vt_normal = slab_mean_vx("free_slip, viscosity_velocity: wall_normal");
+  const double vt_wall = slab_mean_vx("free_slip, viscosity_velocity: wall");
+  ck_assert_double_lt(fabs(vt_normal - 1.0), 0.01);
+  ck_assert_double_lt(vt_wall, vt_normal - 0.05);
+}
+END_TEST
+
 static Suite *sph_wall_suite(void)
 {
   Suite *s = suite_create("sph_wall");
@@ -428,6 +526,7 @@ static Suite *sph_wall_suite(void)
   tcase_add_test(tc, test_wall_velocity_gradient);
   tcase_add_test(tc, test_dp_block_energy_threads);
   tcase_add_test(tc, test_wall_ghosts_refused);
+  tcase_add_test(tc, test_viscosity_velocity);
   suite_add_tcase(s, tc);
   return s;
 }

@@ -16,6 +16,14 @@
  *    (g - a) . r term is a dot product times I; sigma = -p I gives Adami's p_w exactly);
  *      v~_w = sum_f v_f W_wf / sum_f W_wf                                     (Adami Eq 22)
  *    no-slip: v_w,visc = 2 v_w - v~_w                                         (Adami Eq 23)
+ *    viscosity_velocity: wall (either slip): v_w,visc = v_w, the wall particle's own velocity in the
+ *      Monaghan viscosity (PySPH's Adami scheme: MomentumEquationArtificialViscosity takes the
+ *      solids as sources with their own velocity; Eq 23's ghost velocity enters only its physical
+ *      viscous term SolidWallNoSlipBC, pysph/sph/wc/transport_velocity.py and sph/scheme.py);
+ *    viscosity_velocity: wall_normal: as wall, but only the normal part ((v_i - v_w).n) n of the
+ *      relative velocity enters the viscosity and the viscous force acts along (grad_i W . n) n,
+ *      n = n_i the SPH particle's wall normal sum_w (x_i - x_w)|dW/dr| normalised (as the
+ *      gradient pre-pass): damping of the normal approach without friction;
  *    free-slip: no viscous wall term (Adami et al. impose no-slip through the viscous term only: for
  *      free slip the viscous wall interaction is dropped), and the stress mirrored about the wall with
  *      n = sum_f (x_f - x_w) W_wf / |...| (towards the material):
@@ -51,6 +59,7 @@
 
 enum { SW_NO_SLIP = 0, SW_FREE_SLIP = 1 };
 enum { SW_RHO_AUTO = 0, SW_RHO_SHEPARD = 1, SW_RHO_REST = 2 };
+enum { SW_VISC_EXTRAPOLATED = 0, SW_VISC_WALL = 1, SW_VISC_WALL_NORMAL = 2 };
 
 typedef struct sw_config {
   int kernel;
@@ -60,11 +69,13 @@ typedef struct sw_config {
   ej_real wall_acceleration[3];
   ej_real alpha, beta, eta;
   bool wall_gradient;
+  int viscosity_velocity;
 } sw_config;
 
 static const char *const sw_kernels[] = {"cubic_spline", "wendland_c2", NULL};
 static const char *const sw_slips[] = {"no_slip", "free_slip", NULL};
 static const char *const sw_densities[] = {"auto", "shepard", "rest", NULL};
+static const char *const sw_visc_velocities[] = {"extrapolated", "wall", "wall_normal", NULL};
 
 static const ej_param sw_params[] = {
     EJ_PARAM_ENUM(sw_config, kernel, sw_kernels, "cubic_spline",
@@ -95,6 +106,12 @@ static const ej_param sw_params[] = {
                   "L_i += sum_w vol0_w (v_w - v_i) (x) grad_i W (free slip: normal part only), through sph's field "
                   "L_wall filled before sph's stress pass (one material update per step; without it a solid sees "
                   "no elastic compression or shear from the wall)."),
+    EJ_PARAM_ENUM(sw_config, viscosity_velocity, sw_visc_velocities, "extrapolated",
+                  "Velocity of the wall particle in the wall pairs' Monaghan viscosity: extrapolated (no_slip: "
+                  "2 v_w - v~_w, Adami Eq 23; free_slip: no viscous wall term) or wall (the wall particle's own "
+                  "velocity v_w for either slip, as PySPH's Adami scheme applies its artificial viscosity) or wall_normal "
+                  "(only the normal relative velocity n.(v_i - v_w) enters, and the viscous force acts along n, the "
+                  "wall normal: damping without friction)."),
     {0}};
 
 typedef struct sw_state {
@@ -251,13 +268,17 @@ static ej_err sw_wall_pass(sw_state *s, ej_set *wall, ej_set *fl, const ej_nbr *
     for (int q = 0; q < 6; ++q) S[q] = sig[q] * isw;
     S[0] -= hyd, S[1] -= hyd, S[2] -= hyd;
     for (int q = 0; q < 3; ++q) vt[q] *= isw;
+    const bool own = c->viscosity_velocity != SW_VISC_EXTRAPOLATED;
+    if (own)
+      for (int q = 0; q < 3; ++q) V[q] = v0[q]; /* the wall's own velocity in the viscosity */
     if (c->slip == SW_NO_SLIP) {
-      for (int q = 0; q < 3; ++q) V[q] = 2.0 * v0[q] - vt[q]; /* Adami Eq 23 */
+      if (!own)
+        for (int q = 0; q < 3; ++q) V[q] = 2.0 * v0[q] - vt[q]; /* Adami Eq 23 */
     } else {
       const ej_real nl = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
       if (nl > 0) {
         const ej_real n[3] = {nn[0] / nl, nn[1] / nl, nn[2] / nl};
-        for (int q = 0; q < 3; ++q) V[q] = v0[q]; /* unused: no viscous term */
+        for (int q = 0; q < 3; ++q) V[q] = v0[q]; /* viscosity_velocity: wall (else unused) */
         ej_real Q[9];
         for (int a = 0; a < 3; ++a)
           for (int b = 0; b < 3; ++b) Q[3 * a + b] = (a == b ? 1.0 : 0.0) - 2.0 * n[a] * n[b];
@@ -365,6 +386,19 @@ static ej_err sw_fluid_pass(sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr 
     const ej_real irho2 = 1.0 / (rho_i * rho_i);
     const ej_real dwfac = sigma_k * sph_inv_pow(ih, dim + 1);
     ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0, dt = INFINITY;
+    /* wall_normal: the particle's wall normal n_i = sum_w (x_i - x_w) |dW/dr| / |...| (as the
+     * free-slip gradient pre-pass; exact for a flat wall, edges of the material do not tilt it) */
+    ej_real ni[3] = {0, 0, 0};
+    if (c->viscosity_velocity == SW_VISC_WALL_NORMAL) {
+      for (ej_off k = fw->off[i]; k < fw->off[i + 1]; ++k) {
+        ej_real dx[3], dwdr, g[3];
+        if (!sw_pair(c->kernel, dim, xf + 3 * (size_t)i, xw + 3 * (size_t)fw->idx[k], h, ih, dwfac, dx, &dwdr, g))
+          continue;
+        for (int q = 0; q < 3; ++q) ni[q] += dx[q] * dwdr;
+      }
+      const ej_real nl = sqrt(ni[0] * ni[0] + ni[1] * ni[1] + ni[2] * ni[2]);
+      for (int q = 0; q < 3; ++q) ni[q] = nl > 0 ? ni[q] / nl : 0.0;
+    }
     for (ej_off k = fw->off[i]; k < fw->off[i + 1]; ++k) {
       const ej_idx w = fw->idx[k];
       ej_real dx[3], dwdr, g[3];
@@ -373,10 +407,19 @@ static ej_err sw_fluid_pass(sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr 
       const ej_real rho_w = s->w_rho[w], m_w = rho_w * volw[w];
       const ej_real *V = &s->w_vvis[3 * w];
       /* viscosity on v_i - v_w,visc (x_iw = -dx) */
-      const ej_real dvv[3] = {vf[3 * i] - V[0], vf[3 * i + 1] - V[1], vf[3 * i + 2] - V[2]};
+      ej_real dvv[3] = {vf[3 * i] - V[0], vf[3 * i + 1] - V[1], vf[3 * i + 2] - V[2]};
+      const bool nrm_only = c->viscosity_velocity == SW_VISC_WALL_NORMAL;
+      ej_real gn[3] = {0, 0, 0}; /* wall_normal: the viscous force along (g . n) n, no friction */
+      if (nrm_only) {
+        const ej_real *nw = ni;
+        const ej_real vn = dvv[0] * nw[0] + dvv[1] * nw[1] + dvv[2] * nw[2];
+        const ej_real gnn = g[0] * nw[0] + g[1] * nw[1] + g[2] * nw[2];
+        for (int q = 0; q < 3; ++q) dvv[q] = vn * nw[q], gn[q] = gnn * nw[q];
+      }
       const ej_real vx = -(dvv[0] * dx[0] + dvv[1] * dx[1] + dvv[2] * dx[2]);
       ej_real pi = 0;
-      if (vx < 0 && c->slip == SW_NO_SLIP) { /* free slip: no viscous wall term */
+      /* free slip: no viscous wall term unless viscosity_velocity: wall or wall_normal */
+      if (vx < 0 && (c->slip == SW_NO_SLIP || c->viscosity_velocity != SW_VISC_EXTRAPOLATED)) {
         const ej_real mu = h * vx / (r2 + c->eta * c->eta * h * h);
         pi = (-c->alpha * c_i * mu + c->beta * mu * mu) / (0.5 * (rho_i + rho_w));
       }
@@ -384,7 +427,7 @@ static ej_err sw_fluid_pass(sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr 
       const ej_real irho2w = 1.0 / (rho_w * rho_w);
       ej_real t[6], S[9], Si[9];
       for (int q = 0; q < 6; ++q) t[q] = si[q] * irho2 + sw[q] * irho2w;
-      t[0] -= pi, t[1] -= pi, t[2] -= pi;
+      if (!nrm_only) t[0] -= pi, t[1] -= pi, t[2] -= pi;
       ej_s6_to_m3(S, t);
       for (int q = 0; q < 6; ++q) t[q] = si[q] * irho2;
       ej_s6_to_m3(Si, t);
@@ -392,11 +435,16 @@ static ej_err sw_fluid_pass(sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr 
       ej_m3_apply(Sg, S, g);
       ej_m3_apply(Sig, Si, g);
       for (int q = 0; q < 3; ++q) acc[q] += m_w * Sg[q];
+      if (nrm_only)
+        for (int q = 0; q < 3; ++q) acc[q] -= m_w * pi * gn[q];
       const ej_real dv[3] = {vf[3 * i] - vw[3 * w], vf[3 * i + 1] - vw[3 * w + 1], vf[3 * i + 2] - vw[3 * w + 2]};
       de -= m_w * (dv[0] * Sig[0] + dv[1] * Sig[1] + dv[2] * Sig[2]);
       /* viscous heat = minus the power of the viscous force on i relative to the wall, so the wall
        * viscosity does no net work: with (v_i - v_w,visc) it would double-count for no-slip */
-      de += m_w * pi * (dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2]);
+      {
+        const ej_real *gv = nrm_only ? gn : g;
+        de += m_w * pi * (dv[0] * gv[0] + dv[1] * gv[1] + dv[2] * gv[2]);
+      }
       drho += volw[w] * (dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2]);
       const ej_real wsp = c_i + 2.0 * sqrt(dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2]);
       if (wsp > 0 && h / wsp < dt) dt = h / wsp;

@@ -7,6 +7,8 @@
  * the trial equivalent stress; issue 6: epsdot_p = deps_p/dt; issue 5: the rate term is clamped
  * at epsdot_p >= eps_dot0):
  *   sigma_eq_tr - 3G deps = sigma_y(eps_p,n + deps, deps/dt, T_n)
+ * `rate: total` (option, issue 6 diagnostic) uses instead the step's equivalent total deviatoric
+ * strain rate sqrt(2/3 d':d') in the rate term, in the elastic check as well.
  * Temperature (digest 001 §2.3 issue 3: the paper gives no thermal model):
  *   T += chi sigma_y deps / (rho c_p), chi the Taylor-Quinney factor (0.9), T_n in the flow stress.
  * Failure (Johnson & Cook 1985), optional:
@@ -26,6 +28,7 @@ typedef struct jc_config {
   bool failure;
   ej_real D1, D2, D3, D4, D5;
   int volumetric;
+  int rate;
 } jc_config;
 
 typedef struct jc_state {
@@ -34,6 +37,8 @@ typedef struct jc_state {
 } jc_state;
 
 enum { JC_VOL_AUTO, JC_VOL_ELASTIC, JC_VOL_EOS };
+enum { JC_RATE_PLASTIC, JC_RATE_TOTAL };
+static const char *const jc_rate_choices[] = {"plastic", "total", NULL};
 enum { JC_H_EPS_P, JC_H_T, JC_H_DAMAGE, JC_NHIST };
 static const char *const jc_vol_choices[] = {"auto", "elastic", "eos", NULL};
 static const char *const jc_hist_names[] = {"eps_p", "temperature", "damage", NULL};
@@ -63,6 +68,9 @@ static const ej_param jc_params[] = {
     EJ_PARAM_REAL(jc_config, D5, "1", 0, 0, 0, 0, "Failure constant D5 (temperature)."),
     EJ_PARAM_ENUM(jc_config, volumetric, jc_vol_choices, "auto",
                   "Mean stress: elastic (K tr d), eos (-p from the attached EOS), auto (eos when one is attached)."),
+    EJ_PARAM_ENUM(jc_config, rate, jc_rate_choices, "plastic",
+                  "Strain rate of the rate term: plastic (deps_p/dt, digest 001 §2.3 issue 6) or total (equivalent "
+                  "deviatoric strain rate sqrt(2/3 d':d') of the step, also in the elastic check)."),
     {0}};
 
 static ej_err jc_check(const void *config, ej_diag *diag)
@@ -115,19 +123,22 @@ static ej_real jc_flow(const jc_config *c, ej_real ep, ej_real epsdot, ej_real t
   return (c->A + c->B * (ep > 0 ? pow(ep, c->n) : 0.0)) * (1 + c->C * jc_rate_log(c, epsdot)) * th;
 }
 
-/* Solve seq - 3G x = sigma_y(ep + x, x/dt, T*) for x in [0, seq/3G] (the left side minus the
- * right is decreasing in x): Illinois regula falsi with bisection safeguard. */
-static ej_real jc_solve(const jc_config *c, ej_real G, ej_real seq, ej_real ep, ej_real dt, ej_real ts)
+/* Solve seq - 3G x = sigma_y(ep + x, rate, T*) for x in [0, seq/3G], rate = x/dt (rate_fixed < 0)
+ * or rate_fixed (the left side minus the right is decreasing in x): Illinois regula falsi with
+ * bisection safeguard. */
+static ej_real jc_solve(const jc_config *c, ej_real G, ej_real seq, ej_real ep, ej_real dt, ej_real ts,
+                        ej_real rate_fixed)
 {
+  const bool fixed = rate_fixed >= 0;
   ej_real a = 0, b = seq / (3 * G);
-  ej_real fa = seq - jc_flow(c, ep, 0, ts), fb = -jc_flow(c, ep + b, b / dt, ts);
+  ej_real fa = seq - jc_flow(c, ep, fixed ? rate_fixed : 0, ts), fb = -jc_flow(c, ep + b, fixed ? rate_fixed : b / dt, ts);
   if (fb >= 0) return b; /* zero strength (melted) */
   int side = 0;
   for (int it = 0; it < 200; ++it) {
     ej_real x = (a * fb - b * fa) / (fb - fa);
     if (!(x > a && x < b) || it % 8 == 7) x = 0.5 * (a + b);
     if (b - a <= 1e-15 * b) return x;
-    const ej_real fx = seq - 3 * G * x - jc_flow(c, ep + x, x / dt, ts);
+    const ej_real fx = seq - 3 * G * x - jc_flow(c, ep + x, fixed ? rate_fixed : x / dt, ts);
     if (fx == 0) return x;
     if (fx < 0) {
       b = x, fb = fx;
@@ -169,9 +180,11 @@ static ej_err jc_update(const void *state, ej_mat_batch *b)
     for (int k = 0; k < 6; ++k) str[k] = sn[k] + 2 * G * b->dt * dd[k];
     const ej_real seq = sqrt(1.5 * ej_s6_ddot(str, str));
     const ej_real ts = jc_tstar(c, *T);
-    ej_real k = 1, dep = 0, sy = jc_flow(c, *ep, 0, ts);
+    /* rate: total: the step's equivalent deviatoric strain rate, in the elastic check too */
+    const ej_real rate_tot = c->rate == JC_RATE_TOTAL ? sqrt(2.0 / 3.0 * ej_s6_ddot(dd, dd)) : -1.0;
+    ej_real k = 1, dep = 0, sy = jc_flow(c, *ep, rate_tot > 0 ? rate_tot : 0, ts);
     if (seq > sy) {
-      dep = jc_solve(c, G, seq, *ep, b->dt, ts);
+      dep = jc_solve(c, G, seq, *ep, b->dt, ts, rate_tot);
       k = seq > 0 ? fmax(1 - 3 * G * dep / seq, 0.0) : 0.0;
       sy = k * seq;
     }
