@@ -13,6 +13,7 @@ typedef struct continuum_config {
   int form;
   int continuity;
   ej_real alpha, beta, eta, h_factor;
+  ej_real conductivity;
 } continuum_config;
 
 static const char *const continuum_kernels[] = {"cubic_spline", "wendland_c2", NULL};
@@ -38,6 +39,10 @@ static const ej_param continuum_params[] = {
     EJ_PARAM_REAL(continuum_config, h_factor, "1", 0, 0, 3, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Smoothing length of a particle whose method publishes no 'h', in initial spacings; 0: the "
                   "h/spacing ratio of the other particle of each pair when it has an h, else 1.3."),
+    EJ_PARAM_REAL(continuum_config, conductivity, "1", 0.0, 0.0, 10.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Artificial conductivity alpha_u on the interface pairs (Price 2008): de_i/dt += sum_j m_j alpha_u "
+                  "v_sig (e_i - e_j)/rhobar dW/dr, v_sig = sqrt(|p_i - p_j|/rhobar), both sets' e exchanged "
+                  "antisymmetrically (energy conserved); needs e on both sets; 0 is off."),
     {0}};
 
 typedef struct continuum_state {
@@ -52,7 +57,8 @@ static ej_err continuum_create(const void *config, ej_set *a, ej_set *b, void **
   continuum_state *s = ej_calloc(1, sizeof *s);
   EJ_ENSURE(s, EJ_ERR_MEM, "out of memory");
   s->P = (cpl_params){.kernel = c->kernel, .form = c->form, .continuity = c->continuity, .alpha = c->alpha,
-                      .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor};
+                      .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor,
+                      .conductivity = c->conductivity};
   const ej_err rc = cpl_dt_init(&s->dt, a, b);
   if (rc != EJ_OK) {
     ej_free(s);

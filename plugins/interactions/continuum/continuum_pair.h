@@ -39,11 +39,12 @@
 typedef struct cpl_side {
   const ej_set *set;
   int dim;
-  const ej_real *x, *v, *m, *vol0, *rho, *p, *stress, *c, *h;
+  const ej_real *x, *v, *m, *vol0, *rho, *p, *stress, *c, *h, *e;
   ej_real *a, *rho_dot, *e_dot;
   ej_real c_fallback;  /* sound speed when the set has no c field */
   ej_real h_fallback;  /* h_factor, when the set has no h field */
   int spherical;       /* sph geometry: spherical (1D, x = r) with spherical_energy: pair (pdv_pair) */
+  int line;            /* the set publishes m_line (sph geometry: spherical, 1D, x = r) */
 } cpl_side;
 
 enum { CPL_FORM_VOLUME = 0, CPL_FORM_STANDARD = 1 };
@@ -56,6 +57,7 @@ typedef struct cpl_params {
   int continuity; /* CPL_CONT_VOLUME (Eq 3 of 001) or CPL_CONT_BLEND (001 Eq 4) */
   ej_real alpha, beta, eta;
   ej_real h_factor;
+  ej_real conductivity; /* artificial conductivity alpha_u (Price 2008) on the interface pairs; 0: off */
 } cpl_params;
 
 /* Binds the fields of a set; EJ_ERR_INPUT names what is missing. */
@@ -69,6 +71,7 @@ static inline ej_err cpl_bind(cpl_side *s, ej_set *set, const char *who, ej_real
    * spherically symmetric set weigh neighbours by m/(4 pi r^2), not by the shell mass m */
   s->m = ej_set_field(set, "m_line");
   s->spherical = s->m != NULL && ej_set_field(set, "pdv_pair") != NULL; /* sph spherical_energy: pair */
+  s->line = s->m != NULL;
   if (!s->m) s->m = ej_set_field(set, "m");
   s->vol0 = ej_set_field(set, "vol0");
   s->a = ej_set_field(set, "a");
@@ -79,6 +82,7 @@ static inline ej_err cpl_bind(cpl_side *s, ej_set *set, const char *who, ej_real
   s->h = ej_set_field(set, "h");
   s->rho_dot = ej_set_field(set, "rho_dot");
   s->e_dot = ej_set_field(set, "e_dot");
+  s->e = ej_set_field(set, "e");
   s->h_fallback = h_factor;
   if (!s->rho)
     EJ_FAIL(EJ_ERR_INPUT, "%s: set '%s' has no density field 'rho' (its method does not publish one)", who,
@@ -147,7 +151,13 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
     cpl_stress(A, i, si);
     const ej_real rho_i = A->rho[i], irho2_i = 1.0 / (rho_i * rho_i), c_i = cpl_c(A, i);
     (void)irho2_i;
-    ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0, drho_m = 0;
+    ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0, drho_m = 0, dq = 0;
+    /* artificial conductivity across the interface (README "Artificial conductivity"; Price,
+     * J. Comput. Phys. 227 (2008) 10040, section 4): both sides need an internal energy e */
+    const int cond = P->conductivity > 0 && A->e && B->e && A->e_dot;
+    const ej_real p_i = -(si[0] + si[1] + si[2]) / 3.0;
+    const ej_real ai_abs = fabs(A->x[3 * i]);
+    const ej_real inv_ai2 = A->line ? 1.0 / fmax(ai_abs * ai_abs, 1e-300) : 1.0;
     /* A spherical side (1D, x = r) with sph `spherical_energy: pair`, away from the axis
      * (|x_i| >= SPH_SPHERICAL_EXACT_R h_i, the switch of sph's spherical pass, same h) takes the
      * pdV work in the exact pair form: v_i - v_j -> u_ij =
@@ -221,6 +231,16 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
       } else {
         de += mj * (dv[0] * Sig[0] + dv[1] * Sig[1] + dv[2] * Sig[2]);
       }
+      if (cond) {
+        /* dq_i += m_j v_sig (e_i - e_j)/rhobar dW/dr, v_sig = sqrt(|p_i - p_j|/rhobar); a line-mass
+         * (spherical) side weighs the pair by rbar^2/r_i^2, rbar = (|r_i| + |r_j|)/2, so that
+         * m_i dq_i = -m_j dq_j with the shell masses m = 4 pi r^2 mu (energy to round-off) */
+        const ej_real p_j = -(sj[0] + sj[1] + sj[2]) / 3.0, rhobar = 0.5 * (rho_i + B->rho[j]);
+        const ej_real vsig = sqrt(fabs(p_i - p_j) / rhobar);
+        const ej_real rbar = 0.5 * (ai_abs + fabs(B->x[3 * j]));
+        const ej_real geo = A->line ? rbar * rbar * inv_ai2 : 1.0;
+        dq += mj * geo * vsig * (A->e[i] - B->e[j]) / rhobar * dwdr;
+      }
       const ej_real vg = dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2];
       if (psi < 0) drho -= (mj / B->rho[j]) * vg;
       else if (isinf(psi)) drho_m -= mj * vg;
@@ -228,6 +248,7 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
     }
     for (int q = 0; q < 3; ++q) A->a[3 * i + q] += acc[q];
     if (A->e_dot) A->e_dot[i] += de;
+    if (cond) A->e_dot[i] += P->conductivity * dq;
     if (A->rho_dot) A->rho_dot[i] += wc * (rho_i * drho + drho_m);
   }
 }

@@ -46,6 +46,7 @@ typedef struct sph_config {
   ej_real xsph;
   int geometry; /* SPH_GEOM_*: planar, or 1D spherical (x = r) */
   int spherical_energy; /* geometry: spherical: 0 local pdV form, 1 exact pair form away from the axis */
+  ej_real conductivity; /* artificial conductivity alpha_u (Price 2008); 0: off */
 } sph_config;
 
 static const char *const sph_kernel_names[] = {"cubic_spline", "wendland_c2", NULL};
@@ -173,6 +174,10 @@ static const ej_param sph_params[] = {
                   "geometry: spherical: pdV work in the local form -2 (p/rho) v/r (local) or, for particles at "
                   "r >= 4 h, in the pair form that conserves energy exactly with the momentum equation (pair; "
                   "coupled sets then need it on both sides; README \"Spherical symmetry\")."),
+    EJ_PARAM_REAL(sph_config, conductivity, "1", 0.0, 0.0, 10.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Gas (strength: false): artificial conductivity alpha_u of the energy equation (Price 2008), "
+                  "de_i/dt += sum_j m_j alpha_u v_sig (e_i - e_j)/rhobar dW/dr, v_sig = sqrt(|p_i - p_j|/rhobar); "
+                  "pairwise energy-conserving; 0 is off (README \"Artificial conductivity\")."),
     {0}};
 
 typedef struct sph_state {
@@ -1771,6 +1776,52 @@ static ej_err sph_report(void *state, const ej_set *set, ej_series_value *out, i
   return EJ_OK;
 }
 
+/* Artificial conductivity (`conductivity: alpha_u` > 0, gas only; README "Artificial
+ * conductivity"): D. J. Price, "Modelling discontinuities and Kelvin-Helmholtz instabilities in
+ * SPH", J. Comput. Phys. 227 (2008) 10040, section 4 (the conductivity term of the energy
+ * equation and its signal speed for hydrodynamics, v_sig^u = sqrt(|p_i - p_j| / rhobar_ij)):
+ *   de_i/dt += sum_j m_j alpha_u v_sig^u (e_i - e_j) / rhobar_ij dW/dr(r_ij, hbar),   dW/dr <= 0,
+ * rhobar = (rho_i + rho_j)/2, so heat flows from the hotter to the colder particle and only
+ * where the pressure jumps (none at a contact in pressure equilibrium, none in a uniform flow).
+ * m_i de_i/dt + m_j de_j/dt = 0 pair by pair (energy conserved to round-off). geometry:
+ * spherical: the 1D sums use the line mass mu = m/(4 pi r^2) and the pair term is weighted by
+ * rbar^2/r_i^2, rbar = (|r_i| + |r_j|)/2 (the flux through the mid-sphere), so that
+ * m_i de_i = 4 pi rbar^2 mu_i mu_j (...) is again antisymmetric. Own loop over the list, run
+ * only when alpha_u > 0 (the pair loops and their results are unchanged otherwise). */
+static ej_err sph_cond_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
+{
+  const bool sph_sph = s->cfg.geometry == SPH_GEOM_SPHERICAL;
+  const ej_real *x = ej_set_field(set, "x"), *m = ej_set_field(set, sph_sph ? "m_line" : "m");
+  const ej_real *rho = ej_set_field(set, "rho"), *p = ej_set_field(set, "p"), *e = ej_set_field(set, "e");
+  const ej_real *h = ej_set_field(set, "h");
+  ej_real *e_dot = ej_set_field(set, "e_dot");
+  EJ_ENSURE(x && m && rho && p && e && h && e_dot && nbr, EJ_ERR_INTERNAL, "set '%s': sph conductivity fields missing",
+            s->set_name);
+  const int kernel = s->cfg.kernel, dim = s->dim;
+  const ej_real sigma = sph_kernel_sigma(kernel, dim), au = s->cfg.conductivity;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    const ej_real hi = h[i], rhoi = rho[i], pi = p[i], ei = e[i];
+    const ej_real ai = fabs(x[3 * i]), inv_ri2 = sph_sph ? 1.0 / fmax(ai * ai, 1e-300) : 1.0;
+    ej_real de = 0.0;
+    for (ej_off k = nbr->off[i]; k < nbr->off[i + 1]; ++k) {
+      const ej_idx j = nbr->idx[k];
+      ej_real r2 = 0.0;
+      for (int q = 0; q < dim; ++q) r2 += (x[3 * i + q] - x[3 * j + q]) * (x[3 * i + q] - x[3 * j + q]);
+      const ej_real hbar = 0.5 * (hi + h[j]);
+      if (r2 >= 4.0 * hbar * hbar || r2 <= 0.0) continue;
+      const ej_real inv_h = 1.0 / hbar, rr = sqrt(r2);
+      const ej_real dwdr = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, rr * inv_h);
+      const ej_real rhobar = 0.5 * (rhoi + rho[j]);
+      const ej_real vsig = sqrt(fabs(pi - p[j]) / rhobar);
+      const ej_real rbar = 0.5 * (ai + fabs(x[3 * j]));
+      const ej_real geo = sph_sph ? rbar * rbar * inv_ri2 : 1.0;
+      de += m[j] * geo * vsig * (ei - e[j]) / rhobar * dwdr;
+    }
+    e_dot[i] += au * de;
+  }
+  return EJ_OK;
+}
+
 /* geometry: spherical, after the pair pass of the same range (README "Spherical symmetry").
  * With mu_j = m_j/(4 pi r_j^2) in place of m_j the pair pass gives the 1D (planar) terms:
  *   dv_i/dt = -sum_j mu_j (P_i + P_j + Pi_ij) dW_ij/dr_i,  P = p/rho^2,
@@ -1885,6 +1936,7 @@ static ej_err sph_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass,
   case 3:
     EJ_TRY(sph_pair_pass(s, set, nbr, r));
     if (s->cfg.geometry == SPH_GEOM_SPHERICAL) EJ_TRY(sph_geom_pass(s, set, nbr, r));
+    if (s->cfg.conductivity > 0.0) EJ_TRY(sph_cond_pass(s, set, nbr, r));
     break;
   default: EJ_FAIL(EJ_ERR_INTERNAL, "sph: pass %d of %d", pass, sph_pass_count(s));
   }
