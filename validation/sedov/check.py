@@ -37,12 +37,14 @@ RHO = 1.0
 TOL_R = 0.03
 TOL_E = 0.005
 T_MIN = 0.02  # earlier frames: the blast spans too few particles to locate its peak
+T_END = 0.05  # s: end of the scene (the last frame must reach it)
 DEPOSIT_R = 0.04  # m: radius of the energy deposit (two spacings at 0.02, four at 0.01)
 
 
-def scene(dx, t_end=0.05, every=0.01, gradient="kernel", extra=(), deposit_radius=None, cfl=None):
+def scene(dx, t_end=T_END, every=0.01, gradient="kernel", extra=(), deposit_radius=None, cfl=None, dt_min=None):
     """The example scene at spacing dx; gradient shape_tensor adds `gradient: shape_tensor` to
-    the sph set (digest 000 Eqs 29-37); extra: more `key: value` lines for the sph set."""
+    the sph set (digest 000 Eqs 29-37); extra: more `key: value` lines for the sph set; dt_min [s]
+    sets time.dt_min (a step below it stops the run with the watchdog's report)."""
     with open(os.path.join(common.ROOT, "examples", "sedov_3d.yaml")) as f:
         text = f.read()
     lines = [f"    gradient: {gradient}"] if gradient != "kernel" else []
@@ -57,6 +59,9 @@ def scene(dx, t_end=0.05, every=0.01, gradient="kernel", extra=(), deposit_radiu
     if cfl:
         text = text.replace("cfl: 0.3}", f"cfl: {cfl:g}}}")
     text = text.replace("end: 0.05", f"end: {t_end:g}").replace("every: 0.01", f"every: {every:g}")
+    if dt_min:
+        assert text.count("time: {") == 1, "sedov scene: one time: {...} line expected"
+        text = text.replace("time: {", f"time: {{dt_min: {dt_min:g}, ", 1)
     return text
 
 
@@ -109,6 +114,9 @@ def main():
     ap.add_argument("--deposit-radius", type=float, default=None,
                     help=f"radius [m] of the energy deposit (default {DEPOSIT_R} m at every spacing)")
     ap.add_argument("--cfl", type=float, default=None, help="CFL factor (default the scene's 0.3)")
+    ap.add_argument("--dt-min", type=float, default=None,
+                    help="time.dt_min [s] of the scene: a run whose step falls below it stops and reports "
+                         "the particle (default: none, the core's dt_min_ratio only)")
     args = ap.parse_args()
     exe = common.ejecta_binary(args.build)
     dx = 0.01 if args.full else 0.02
@@ -129,7 +137,7 @@ def run_case(exe, args, dx, xi0, gradient, extra):
     name = f"sedov{tag}_{dx:g}"
     try:
         path, wall = common.run(exe, scene(dx, gradient=gradient, extra=extra, deposit_radius=args.deposit_radius,
-                                           cfl=args.cfl), name, args.out, args.threads, args.reuse)
+                                           cfl=args.cfl, dt_min=args.dt_min), name, args.out, args.threads, args.reuse)
     except RuntimeError as err:  # the run itself failed (watchdog): a FAIL with its reason
         print(f"  run failed: {err}")
         print(f"  gradient {gradient}: FAIL")
@@ -150,6 +158,11 @@ def run_case(exe, args, dx, xi0, gradient, extra):
         ok &= good
         rows.append((t, R, Re, err))
         print(f"  {t:7.4f} {R:9.4f} {Re:9.4f} {100 * err:7.2f}%  {'PASS' if good else 'FAIL'}  ({R_peak:.4f})")
+    # a reused output may be a failed run's `.partial` state: the run must reach the scene's end
+    t_last = max((common.read_frame(path, fr)["time"] for fr in common.frames(path)), default=0.0)
+    if t_last < T_END - 1e-6:
+        ok = False
+        print(f"  the output ends at t = {t_last:.5g} s, before the end {T_END:g} s: FAIL (incomplete run)")
     es = common.read_series(path)
     total0 = es["kinetic"][0] + es["internal"][0]
     bal = np.abs(es["balance"]) / total0

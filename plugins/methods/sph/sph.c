@@ -200,6 +200,18 @@ typedef struct sph_state {
 /* Rows longer than 64 SPH_KEEP_WORDS entries are visited in full (every entry tested). */
 #define SPH_KEEP_WORDS 8
 
+/* number of set bits of a word */
+static inline int sph_popcount64(uint64_t b)
+{
+#if defined(__GNUC__)
+  return __builtin_popcountll(b);
+#else
+  int n = 0;
+  for (; b; b &= b - 1) ++n;
+  return n;
+#endif
+}
+
 /* index of the lowest set bit of a nonzero word */
 static inline int sph_ctz64(uint64_t b)
 {
@@ -683,10 +695,9 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
   /* Blocked like sph_pairs_blocked: gather, then a vectorised sum (a fixed order for a given
    * build, whatever the thread count); pairs beyond 2 hbar get weight 0. */
   ej_real bx[SPH_BLK], by[SPH_BLK], bz[SPH_BLK], bh[SPH_BLK], bV[SPH_BLK];
-  int32_t bk[SPH_BLK];
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
     uint64_t *restrict ki = keep && off[i + 1] - off[i] <= 64 * SPH_KEEP_WORDS ? keep + SPH_KEEP_WORDS * i : NULL;
-    if (ki)
+    if (ki) /* the words past the row's last entry stay 0 */
       for (int w = 0; w < SPH_KEEP_WORDS; ++w) ki[w] = 0;
     ej_real b0 = 0, b1 = 0, b2 = 0, b3 = 0, b4 = 0, b5 = 0; /* xx yy zz xy yz zx */
     const ej_real inv_hi = 1.0 / h[i], hi = h[i];
@@ -705,8 +716,12 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
         __asm__ volatile("");
 #endif
       }
+      /* the entry mask of the block, built in the same loop: a block starts at a multiple of
+       * SPH_BLK = 2 x 64 entries, so it fills two whole words (lo: entries 0-63, hi: 64-127) */
+      _Static_assert(SPH_BLK == 128, "sph: a block must fill two mask words");
+      uint64_t wlo = 0, whi = 0;
 #if defined(_OPENMP)
-#pragma omp simd reduction(+ : b0, b1, b2, b3, b4, b5)
+#pragma omp simd reduction(+ : b0, b1, b2, b3, b4, b5) reduction(| : wlo, whi)
 #endif
       for (int q = 0; q < nk; ++q) {
         const ej_real rx = bx[q] - xi0;
@@ -718,7 +733,10 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
         const ej_real w0 = bV[q] * sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, sqrt(r2) * inv_h);
         const bool in = r2 < 4.0 * hbar * hbar;
         const ej_real w = in ? w0 : 0.0;
-        bk[q] = in;
+        /* the same test r2 < 4 hbar^2 as the pair pass (r2 of x_j - x_i is that of x_i - x_j) */
+        const uint64_t bit = (uint64_t)in << (q & 63);
+        wlo |= q < 64 ? bit : 0;
+        whi |= q < 64 ? 0 : bit;
         b0 += w * rx * rx;
         b1 += w * ry * ry;
         b2 += w * rz * rz;
@@ -726,11 +744,11 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
         b4 += w * ry * rz;
         b5 += w * rz * rx;
       }
-      if (ki) /* the same test r2 < 4 hbar^2 as the pair pass (r2 of x_j - x_i is that of x_i - x_j) */
-        for (int q = 0; q < nk; ++q) {
-          const ej_off k = k0 - off[i] + q;
-          ki[k >> 6] |= (uint64_t)(bk[q] != 0) << (k & 63);
-        }
+      if (ki) {
+        const ej_off w = (k0 - off[i]) >> 6;
+        ki[w] = wlo;
+        if (nk > 64) ki[w + 1] = whi;
+      }
     }
     ej_real b[6] = {b0, dim > 1 ? b1 : 0.0, dim > 2 ? b2 : 0.0, dim > 1 ? b3 : 0.0, dim > 2 ? b4 : 0.0,
                     dim > 2 ? b5 : 0.0};
@@ -971,14 +989,18 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
   const ej_real *restrict p_rho2 = A->p_rho2, *restrict c = A->c, *restrict h = A->h;
   const ej_real *restrict M = A->M;
   const int32_t *restrict fb = A->fb;
-  const bool volume_form = A->volume_form, renormalize = A->renormalize;
+  /* shape == 3: the symmetric form (2) with the default options (continuity: volume, shape_viscosity:
+   * kernel, shape_energy: own, shape_continuity: symmetric) as compile-time constants, so that the
+   * vectorised loop carries neither the unused branch nor its selects (the same expressions) */
+  const bool sym = shape >= 2;
+  const bool volume_form = shape == 3 || A->volume_form, renormalize = A->renormalize;
   ej_real *restrict a = A->a, *restrict rho_dot = A->rho_dot, *restrict e_dot = A->e_dot;
   ej_real *restrict w_dot = A->w_dot, *restrict mu_max = A->mu_max;
   const ej_off *restrict off = A->off;
   const ej_idx *restrict idx = A->idx;
   const ej_real alpha = A->alpha, beta = A->beta, eta2 = A->eta2;
   const ej_real sigma = sph_kernel_sigma(kernel, dim);
-  /* shape == 2 only (README "Stabilised symmetric form"): the Monaghan viscosity with the kernel
+  /* shape == 2 (and 3) only (README "Stabilised symmetric form"): the Monaghan viscosity with the kernel
    * gradient (radial, so v_ij.grad_i W_ij >= 0 wherever Pi_ij > 0: non-negative heating; Monaghan,
    * ARA&A 30 (1992) 543), and the pdV work of particle i's own pressure,
    *   de_i/dt = sum_j m_j (p_i/rho_i^2) v_ij.G_ij + 1/2 sum_j m_j Pi_ij v_ij.grad_i W_ij
@@ -986,16 +1008,17 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
    * 1/2 (p_i/rho_i^2 + p_j/rho_j^2). Energy stays exactly conserved: v_ij.G_ij is symmetric in i, j
    * (both factors antisymmetric), so sum_ij m_i m_j (p_i/rho_i^2) v_ij.G_ij equals the symmetrised
    * sum, which is -sum_i m_i v_i.a_i of the pressure force. */
-  const bool visc_kernel = shape == 2 && A->visc_kernel, energy_own = shape == 2 && A->energy_own;
-  const bool cont_sym = shape == 2 && A->cont_sym;
+  const bool visc_kernel = shape == 3 || (shape == 2 && A->visc_kernel);
+  const bool energy_own = shape == 3 || (shape == 2 && A->energy_own);
+  const bool cont_sym = shape == 3 || (shape == 2 && A->cont_sym);
   /* shape_continuity: symmetric with continuity: volume (README "Compatible continuity"): the volume form
    * drho_i/dt = rho_i sum_j V_j v_ij.G_ij pairs with dv_i/dt = -sum_j m_j (p_i + p_j)/(rho_i rho_j) G_ij and
    * de_i/dt = (p_i/rho_i) sum_j V_j v_ij.G_ij (Monaghan 1992 Eq 3.3's (p_i + p_j)/(rho_i rho_j) form), so that
    * de_i/dt = p_i/rho_i^2 drho_i/dt pair by pair; momentum and energy stay exactly conserved (the coefficient
    * V_i V_j (p_i + p_j) is symmetric, G_ij antisymmetric). */
   const bool vol_pair = cont_sym && volume_form && (visc_kernel || energy_own);
-  /* shape == 2: the neighbour's M_j^-1 (6; all 0 for a fallback row) */
-  ej_real bM[6][shape == 2 ? SPH_BLK : 1];
+  /* shape >= 2: the neighbour's M_j^-1 (6; all 0 for a fallback row) */
+  ej_real bM[6][sym ? SPH_BLK : 1];
   /* gathered neighbour data (12 KiB of stack, L1-resident); one array so that every buffer is
    * a constant offset from one base register (no spilled pointers) */
   enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BPR, BM, NBUF };
@@ -1003,7 +1026,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
   ej_real *restrict bx = buf[BX], *restrict by = buf[BY], *restrict bz = buf[BZ], *restrict bh = buf[BH];
   ej_real *restrict bvx = buf[BVX], *restrict bvy = buf[BVY], *restrict bvz = buf[BVZ];
   ej_real *restrict brho = buf[BRHO], *restrict bc = buf[BC], *restrict bpr = buf[BPR], *restrict bm = buf[BM];
-  ej_off ent[SPH_BLK]; /* list entries of the block */
+  ej_idx jb[SPH_BLK]; /* neighbours of the block */
 
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
     const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
@@ -1021,25 +1044,25 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
     const uint64_t *restrict ki = shape && A->keep && off[i + 1] - off[i] <= 64 * SPH_KEEP_WORDS
                                       ? A->keep + SPH_KEEP_WORDS * i : NULL;
     int wrd = 0;
-    uint64_t bits = ki ? ki[0] : 0;
     ej_off kc = off[i];
+    const ej_idx *restrict row = idx + off[i];
     for (;;) {
       int nk = 0;
-      const ej_off kb = kc; /* without masks: entries kb .. kb + nk - 1 */
-      if (ki) {
-        while (nk < SPH_BLK) {
-          while (!bits && wrd + 1 < SPH_KEEP_WORDS) bits = ki[++wrd];
-          if (!bits) break;
-          ent[nk++] = off[i] + 64 * wrd + sph_ctz64(bits);
-          bits &= bits - 1;
+      if (ki) { /* the set bits of the masks in list order, whole words per block (a word has <= 64) */
+        for (; wrd < SPH_KEEP_WORDS; ++wrd) {
+          uint64_t bits = ki[wrd];
+          if (nk + sph_popcount64(bits) > SPH_BLK) break;
+          const ej_idx *restrict rw = row + 64 * wrd;
+          for (; bits; bits &= bits - 1) jb[nk++] = rw[sph_ctz64(bits)];
         }
       } else {
         nk = (int)(off[i + 1] - kc < SPH_BLK ? off[i + 1] - kc : SPH_BLK);
+        for (int q = 0; q < nk; ++q) jb[q] = idx[kc + q];
         kc += nk;
       }
       if (nk == 0) break;
       for (int q = 0; q < nk; ++q) {
-        const ej_idx j = idx[ki ? ent[q] : kb + q];
+        const ej_idx j = jb[q];
         bx[q] = x[3 * j];
         by[q] = dim > 1 ? x[3 * j + 1] : 0.0;
         bz[q] = dim > 2 ? x[3 * j + 2] : 0.0;
@@ -1047,7 +1070,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
         bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0;
         bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
         bh[q] = h[j], brho[q] = rho[j], bc[q] = c[j], bpr[q] = p_rho2[j], bm[q] = m[j];
-        if (shape == 2) /* M_inv = 0 marks a fallback row (a regular M^-1 has M^-1_xx > 0) */
+        if (sym) /* M_inv = 0 marks a fallback row (a regular M^-1 has M^-1_xx > 0) */
           for (int t = 0; t < 6; ++t) bM[t][q] = M[6 * j + t];
 #if defined(__GNUC__)
         /* keeps this loop scalar: vectorised, its indexed loads become element inserts (slower) */
@@ -1094,7 +1117,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
           const ej_real sz = dim > 2 ? mi5 * ux + mi4 * uy + mi2 * uz : 0.0;
           const ej_real ix = fbi ? gx : sx, iy = fbi ? gy : sy, iz = fbi ? gz : sz;
           vC = fbi ? vr * gw : vx * ix + vy * iy + vz * iz;
-          if (shape == 2) {
+          if (sym) {
             const ej_real tx = bM[0][q] * ux + bM[3][q] * uy + bM[5][q] * uz;
             const ej_real ty = dim > 1 ? bM[3][q] * ux + bM[1][q] * uy + bM[4][q] * uz : 0.0;
             const ej_real tz = dim > 2 ? bM[5][q] * ux + bM[4][q] * uy + bM[2][q] * uz : 0.0;
@@ -1236,10 +1259,13 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
             EJ_ERR_INTERNAL, "set '%s': sph fields missing", s->set_name);
   const int shape = s->cfg.gradient != SPH_GRAD_SHAPE ? 0 : s->cfg.shape_form == SPH_SHAPE_PAPER ? 1 : 2;
   EJ_ENSURE(!shape || (A.M && A.fb), EJ_ERR_INTERNAL, "set '%s': sph shape-tensor fields missing", s->set_name);
+  /* the symmetric form with the default options: its own instantiation (sph_pairs_blocked, shape 3) */
+  const bool shape_defaults = A.volume_form && A.visc_kernel && A.energy_own && A.cont_sym;
   /* One instantiation per (kernel, dim, gradient): no per-pair dispatch. */
 #define SPH_CASE(k, d)                                                                                  \
   case (k) * 4 + (d):                                                                                   \
     if (shape == 1) sph_pairs_blocked((k), (d), 1, &A, r);                                              \
+    else if (shape == 2 && shape_defaults) sph_pairs_blocked((k), (d), 3, &A, r);                       \
     else if (shape == 2) sph_pairs_blocked((k), (d), 2, &A, r);                                         \
     else if (s->cfg.correction) sph_pairs((k), (d), true, 0, &A, r);                                    \
     else sph_pairs_blocked((k), (d), 0, &A, r);                                                         \
