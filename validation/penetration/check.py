@@ -39,6 +39,13 @@ def geometry(angle_deg, gap=0.02):
     return a, centre, tip
 
 
+# Table 7 soil (003 §5.2) and the Table 6 steel's density: shared with diagnose.py's 3D scene
+MATERIALS = """materials:
+  soil: {model: dp_damage, rho0: 2000, E: 200 MPa, nu: 0.2, beta: 0.16, A: 20 kPa, H_alpha: 100 MPa,
+         c2: 0.05, c1: 1.0}
+  steel: {rho0: 8050}"""
+
+
 def scene(angle, s, sp, t_end, width=16.0, depth=8.0, mu=0.1, integration="msnni", every="5 ms", out="out/p.h5"):
     a, c, _ = geometry(angle)
     v = V0 * a
@@ -50,10 +57,7 @@ ejecta: 1
 dimension: 2
 time: {{end: {t_end}, cfl: 0.3}}
 output: {{file: {out}, every: {every}, fields: [v, damage]}}
-materials:
-  soil: {{model: dp_damage, rho0: 2000, E: 200 MPa, nu: 0.2, beta: 0.16, A: 20 kPa, H_alpha: 100 MPa,
-         c2: 0.05, c1: 1.0}}
-  steel: {{rho0: 8050}}
+{MATERIALS}
 sets:
   soil:
     method: rkpm

@@ -79,10 +79,7 @@ ejecta: 1
 dimension: 3
 time: {{end: {t_end}, cfl: 0.3}}
 output: {{file: {out}, every: {every}, fields: [v, damage, p, stress]}}
-materials:
-  soil: {{model: dp_damage, rho0: 2000, E: 200 MPa, nu: 0.2, beta: 0.16, A: 20 kPa, H_alpha: 100 MPa,
-         c2: 0.05, c1: 1.0}}
-  steel: {{rho0: 8050}}
+{check.MATERIALS}
 sets:
   soil:
     method: rkpm
