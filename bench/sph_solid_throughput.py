@@ -21,6 +21,13 @@ child; much less sensitive than wall time to other jobs on a shared machine) and
 
 Targets (issue 6): >= 5e5 particle-steps/s per core, 1 -> 2 thread speed-up >= 1.8. Reported
 PASS/FAIL, never in the exit status (a benchmark, not a test).
+
+Measured (2-core AMD EPYC Zen 3 shared with other jobs, load 1.4-2.3; plugins/methods/sph/README.md,
+"Solid throughput note"): 1 thread, CPU time, HEAD and the vectorised gathers alternated 3 times:
+HEAD 2.44e5 / 2.45e5 / 2.86e5, after 2.92e5 / 2.91e5 / 3.55e5 particle-steps/s (x1.19-1.24);
+this script at HEAD: 2.93e5 (CPU), speed-up 1.67; after: 3.14e5 and 2.98e5 (CPU, two runs),
+speed-up 0.65 and 1.36 (2-thread wall times disturbed by other jobs: not a measurement of the
+code). Target 5e5 per core: FAIL; speed-up 1.8: FAIL on this shared machine.
 """
 import argparse
 import os

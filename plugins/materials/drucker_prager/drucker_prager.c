@@ -98,8 +98,9 @@ static ej_err dp_init_hist(const void *state, ej_idx n, ej_real *const *hist)
   return EJ_OK;
 }
 
-/* Rate-independent return of the trial stress tr with cohesion c (in/out). */
-static void dp_return(const dp_state *s, const ej_real tr[6], ej_real out[6], ej_real *c)
+/* Rate-independent return of the trial stress tr with cohesion c (in/out). Returns true when the
+ * trial state is elastic (out = tr, c unchanged), false after a return. */
+static bool dp_return(const dp_state *s, const ej_real tr[6], ej_real out[6], ej_real *c)
 {
   const ej_real K = s->K, G = s->G, A = s->A_phi, B = s->B_phi, Bp = s->B_psi, H = s->cfg.H_c;
   ej_real str[6];
@@ -109,7 +110,7 @@ static void dp_return(const dp_state *s, const ej_real tr[6], ej_real out[6], ej
   const ej_real T = fmin(s->cfg.tension_cutoff, apex);
   const ej_real ftr = qtr - (A * *c - B * ptr);
   memcpy(out, tr, 6 * sizeof *out);
-  if (ftr <= 0 && ptr <= T) return; /* elastic */
+  if (ftr <= 0 && ptr <= T) return true; /* elastic */
   if (ftr > 0) {
     const ej_real dg = ftr / (2 * G + K * B * Bp + H * A * A); /* Eq 57 */
     const ej_real p1 = ptr - K * Bp * dg, c1 = *c + H * A * dg;
@@ -118,7 +119,7 @@ static void dp_return(const dp_state *s, const ej_real tr[6], ej_real out[6], ej
       for (int j = 0; j < 6; ++j) out[j] = k * str[j];
       for (int j = 0; j < 3; ++j) out[j] += p1;
       *c = c1; /* Eq 59 */
-      return;
+      return false;
     }
   }
   /* Tension region: apex (T = A c / B), cutoff plane, or the cone/cutoff corner. */
@@ -126,6 +127,7 @@ static void dp_return(const dp_state *s, const ej_real tr[6], ej_real out[6], ej
   const ej_real k = qtr > qmax ? qmax / qtr : 1.0;
   for (int j = 0; j < 6; ++j) out[j] = k * str[j];
   for (int j = 0; j < 3; ++j) out[j] += T;
+  return false;
 }
 
 static ej_err dp_update(const void *state, ej_mat_batch *b)
@@ -138,7 +140,14 @@ static ej_err dp_update(const void *state, ej_mat_batch *b)
     ej_real tr[6], qs[6];
     mp_elastic_trial(tr, sig, b->d + 6 * (size_t)i, K, G, b->dt);
     ej_real c = b->hist[DP_H_COH][i];
-    dp_return(s, tr, qs, &c);
+    if (dp_return(s, tr, qs, &c)) {
+      /* elastic predictor kept (the usual case): sigma = sigma_tr, and the history, plastic work
+       * and increments below would all be exact zeros (sigma_tr - sigma = 0), so skip them */
+      memcpy(sig, tr, 6 * sizeof *sig);
+      if (b->w_plastic) b->w_plastic[i] = 0.0;
+      if (b->c) b->c[i] = mp_sound_speed(K, G, b->rho[i]);
+      continue;
+    }
     /* Duvaut-Lions: sigma = sigma_tr + theta (sigma_qs - sigma_tr); theta = 1 rate independent. */
     for (int k = 0; k < 6; ++k) sig[k] = tr[k] + theta * (qs[k] - tr[k]);
     b->hist[DP_H_COH][i] += theta * (c - b->hist[DP_H_COH][i]);

@@ -1343,6 +1343,46 @@ static inline SPH_ALWAYS_INLINE ej_real sph_solid_kdf(const int kernel, const in
  * entry: 96 entries keep the buffers at 24 KiB, in L1). */
 #define SPH_SOLID_BLK 96
 
+#if defined(__AVX2__)
+#include <immintrin.h>
+/* Compress-store tables of sph_solid_gather's AVX2 path: for a 4-bit mask of kept lanes, the
+ * 32-bit lane indices that move the kept 64-bit lanes (perm64) or 32-bit lanes (perm32) to the
+ * front, in order (_mm256_permutevar8x32). */
+static const int32_t sph_solid_perm64[16][8] __attribute__((aligned(32))) = {
+    {0, 0, 0, 0, 0, 0, 0, 0}, {0, 1, 0, 0, 0, 0, 0, 0}, {2, 3, 0, 0, 0, 0, 0, 0}, {0, 1, 2, 3, 0, 0, 0, 0},
+    {4, 5, 0, 0, 0, 0, 0, 0}, {0, 1, 4, 5, 0, 0, 0, 0}, {2, 3, 4, 5, 0, 0, 0, 0}, {0, 1, 2, 3, 4, 5, 0, 0},
+    {6, 7, 0, 0, 0, 0, 0, 0}, {0, 1, 6, 7, 0, 0, 0, 0}, {2, 3, 6, 7, 0, 0, 0, 0}, {0, 1, 2, 3, 6, 7, 0, 0},
+    {4, 5, 6, 7, 0, 0, 0, 0}, {0, 1, 4, 5, 6, 7, 0, 0}, {2, 3, 4, 5, 6, 7, 0, 0}, {0, 1, 2, 3, 4, 5, 6, 7}};
+static const int32_t sph_solid_perm32[16][8] __attribute__((aligned(32))) = {
+    {0, 0, 0, 0, 0, 0, 0, 0}, {0, 0, 0, 0, 0, 0, 0, 0}, {1, 0, 0, 0, 0, 0, 0, 0}, {0, 1, 0, 0, 0, 0, 0, 0},
+    {2, 0, 0, 0, 0, 0, 0, 0}, {0, 2, 0, 0, 0, 0, 0, 0}, {1, 2, 0, 0, 0, 0, 0, 0}, {0, 1, 2, 0, 0, 0, 0, 0},
+    {3, 0, 0, 0, 0, 0, 0, 0}, {0, 3, 0, 0, 0, 0, 0, 0}, {1, 3, 0, 0, 0, 0, 0, 0}, {0, 1, 3, 0, 0, 0, 0, 0},
+    {2, 3, 0, 0, 0, 0, 0, 0}, {0, 2, 3, 0, 0, 0, 0, 0}, {1, 2, 3, 0, 0, 0, 0, 0}, {0, 1, 2, 3, 0, 0, 0, 0}};
+#endif
+
+#if defined(__AVX2__)
+/* Gather of four rows (6 values each: Voigt tensors) of a into the component buffers
+ * dst[t * SPH_SOLID_BLK + 0..3], t = 0..5: four row loads and a 4x4 (+ 4x2) transpose instead of
+ * 24 scalar loads and 24 scalar stores. Data movement only (bitwise the same). */
+static inline SPH_ALWAYS_INLINE void sph_solid_t6(const ej_real *restrict a, const ej_idx *restrict j4,
+                                                  ej_real *restrict dst)
+{
+  const ej_real *p0 = a + 6 * (size_t)j4[0], *p1 = a + 6 * (size_t)j4[1];
+  const ej_real *p2 = a + 6 * (size_t)j4[2], *p3 = a + 6 * (size_t)j4[3];
+  const __m256d r0 = _mm256_loadu_pd(p0), r1 = _mm256_loadu_pd(p1), r2 = _mm256_loadu_pd(p2), r3 = _mm256_loadu_pd(p3);
+  const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
+  const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
+  _mm256_storeu_pd(dst, _mm256_permute2f128_pd(t0, t2, 0x20));
+  _mm256_storeu_pd(dst + SPH_SOLID_BLK, _mm256_permute2f128_pd(t1, t3, 0x20));
+  _mm256_storeu_pd(dst + 2 * SPH_SOLID_BLK, _mm256_permute2f128_pd(t0, t2, 0x31));
+  _mm256_storeu_pd(dst + 3 * SPH_SOLID_BLK, _mm256_permute2f128_pd(t1, t3, 0x31));
+  const __m256d u02 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p0 + 4)), _mm_loadu_pd(p2 + 4), 1);
+  const __m256d u13 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p1 + 4)), _mm_loadu_pd(p3 + 4), 1);
+  _mm256_storeu_pd(dst + 4 * SPH_SOLID_BLK, _mm256_unpacklo_pd(u02, u13));
+  _mm256_storeu_pd(dst + 5 * SPH_SOLID_BLK, _mm256_unpackhi_pd(u02, u13));
+}
+#endif
+
 /* Compaction gather shared by the two solid pair loops: from list entry *k on, up to
  * SPH_SOLID_BLK entries inside 2 hbar (and, with drop_self, not coincident) go to the buffers
  * bx, by, bz, bh, jb; the slot of a skin entry is overwritten by the next one (branch-free).
@@ -1356,6 +1396,42 @@ static inline SPH_ALWAYS_INLINE int sph_solid_gather(const int dim, const bool d
 {
   int nk = 0;
   ej_off kk = *k;
+#if defined(__AVX2__)
+  /* 3D with AVX2: four entries at a time (gathers, one compare, compress-store through the
+   * permutation tables). The same operations in the same order as the scalar loop below (no FMA:
+   * -std=c11 keeps contraction off), so the same entries in the same slots and the same block
+   * boundaries: bitwise the same results. The scalar loop finishes the block (nk > BLK - 4) and
+   * the row (fewer than 4 entries left). */
+  if (dim == 3) {
+    const __m256d vx0 = _mm256_set1_pd(xi0), vx1 = _mm256_set1_pd(xi1), vx2 = _mm256_set1_pd(xi2);
+    const __m256d vhi = _mm256_set1_pd(hi), half = _mm256_set1_pd(0.5), four = _mm256_set1_pd(4.0);
+    for (; kk + 4 <= kend && nk <= SPH_SOLID_BLK - 4; kk += 4) {
+      const __m128i j4 = _mm_loadu_si128((const __m128i *)(const void *)(idx + kk));
+      /* scalar loads, not vgatherqpd (microcoded and slower on AMD Zen 3) */
+      const ej_idx ja = idx[kk], jbb = idx[kk + 1], jc = idx[kk + 2], jd = idx[kk + 3];
+      const ej_real *xa = x + 3 * (size_t)ja, *xb = x + 3 * (size_t)jbb, *xc = x + 3 * (size_t)jc,
+                    *xd = x + 3 * (size_t)jd;
+      const __m256d X = _mm256_set_pd(xd[0], xc[0], xb[0], xa[0]), Y = _mm256_set_pd(xd[1], xc[1], xb[1], xa[1]);
+      const __m256d Z = _mm256_set_pd(xd[2], xc[2], xb[2], xa[2]), H = _mm256_set_pd(h[jd], h[jc], h[jbb], h[ja]);
+      const __m256d hb = _mm256_mul_pd(half, _mm256_add_pd(vhi, H));
+      const __m256d d0 = _mm256_sub_pd(vx0, X), d1 = _mm256_sub_pd(vx1, Y), d2 = _mm256_sub_pd(vx2, Z);
+      const __m256d r2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(d0, d0), _mm256_mul_pd(d1, d1)),
+                                       _mm256_mul_pd(d2, d2));
+      __m256d in = _mm256_cmp_pd(r2, _mm256_mul_pd(_mm256_mul_pd(four, hb), hb), _CMP_LT_OQ);
+      if (drop_self) in = _mm256_and_pd(in, _mm256_cmp_pd(r2, _mm256_setzero_pd(), _CMP_GT_OQ));
+      const int msk = _mm256_movemask_pd(in);
+      const __m256i p = _mm256_load_si256((const __m256i *)(const void *)sph_solid_perm64[msk]);
+      _mm256_storeu_pd(bx + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(X), p)));
+      _mm256_storeu_pd(by + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(Y), p)));
+      _mm256_storeu_pd(bz + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(Z), p)));
+      _mm256_storeu_pd(bh + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(H), p)));
+      const __m256i pj = _mm256_load_si256((const __m256i *)(const void *)sph_solid_perm32[msk]);
+      _mm_storeu_si128((__m128i *)(void *)(jb + nk),
+                       _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castsi128_si256(j4), pj)));
+      nk += __builtin_popcount((unsigned)msk);
+    }
+  }
+#endif
   for (; kk < kend && nk < SPH_SOLID_BLK; ++kk) {
     const ej_idx j = idx[kk];
     const ej_real xj0 = x[3 * j], xj1 = dim > 1 ? x[3 * j + 1] : 0.0, xj2 = dim > 2 ? x[3 * j + 2] : 0.0;
@@ -1577,7 +1653,8 @@ static ej_err sph_solid_stress_pass(const sph_state *s, ej_set *set, const ej_nb
  * Per pair, with Ti = sigma_i/rho_i^2 + f^n R_i - Pi/2 I and Tj likewise:
  *   a_i += m_j (Ti + Tj) G_ij,  e_dot_i -= m_j v_ij . (Ti G_ij),  w_dot_i += m_j Pi/2 v_ij . G_ij. */
 static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, const int dim, const bool corr,
-                                                             const bool art4, const sph_solid_args *A, ej_range rg)
+                                                             const bool art4, const bool do_xsph,
+                                                             const sph_solid_args *A, ej_range rg)
 {
   const ej_real *restrict x = A->x, *restrict v = A->v, *restrict m = A->m, *restrict rho = A->rho;
   const ej_real *restrict c = A->c, *restrict h = A->h, *restrict sr2 = A->sr2, *restrict R = A->R;
@@ -1588,7 +1665,9 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
   const ej_real alpha = A->alpha, beta = A->beta, eta2 = A->eta2, xsph = A->xsph;
   /* art4 (art_n = 4, the default) is a constant of the instantiation: in the vectorised loop both
    * sides of a select are evaluated, so a run-time choice would call the vector pow for every pair */
-  const bool art = A->art, do_xsph = xsph > 0.0;
+  /* do_xsph (xsph > 0) is a constant of the instantiation too: without XSPH (the default) the
+   * pair loop skips the kernel value and the three XSPH sums */
+  const bool art = A->art;
   const ej_real art_n = A->art_n;
   /* 1/f(dx/h): the artificial stress weight f_ij = f(q) / f(dx/h) */
   const ej_real inv_fdx = 1.0 / sph_kernel_f(kernel, dim, A->inv_hf);
@@ -1613,10 +1692,25 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
     for (ej_off k = off[i]; k < kend;) {
       /* compaction: only the entries inside 2 hbar enter the buffers */
       const int nk = sph_solid_gather(dim, false, x, h, idx, &k, kend, xi0, xi1, xi2, hi, bx, by, bz, bh, jb);
+      int q6 = 0; /* the tensor rows of entries [0, q6) are gathered by sph_solid_t6 */
+#if defined(__AVX2__)
+      for (; q6 + 4 <= nk; q6 += 4) {
+        ej_real *const b0 = &buf[0][0] + q6; /* the whole buffer array: rows t = 0..5 of each tensor */
+        sph_solid_t6(sr2, jb + q6, b0 + BS0 * SPH_SOLID_BLK);
+        sph_solid_t6(R, jb + q6, b0 + BR0 * SPH_SOLID_BLK);
+        if (corr) sph_solid_t6(L, jb + q6, b0 + BL0 * SPH_SOLID_BLK);
+      }
+#endif
       for (int q = 0; q < nk; ++q) {
         const ej_idx j = jb[q];
         bvx[q] = v[3 * j], bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0, bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
         brho[q] = rho[j], bc[q] = c[j], bm[q] = m[j];
+#if defined(__GNUC__)
+        __asm__ volatile(""); /* keeps the gather scalar (as in sph_pairs_blocked) */
+#endif
+      }
+      for (int q = q6; q < nk; ++q) {
+        const ej_idx j = jb[q];
         for (int t = 0; t < 6; ++t) buf[BS0 + t][q] = sr2[6 * j + t];
         /* R always (zero without art_stress): a load under a condition keeps GCC 12 from
          * if-converting, and so from vectorising, the pair loop */
@@ -1680,11 +1774,12 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
         if (dim > 2) az += mk * (iz + jz);
         de -= mk * (vx * ix + vy * iy + vz * iz);
         dw += mk * hp * (vx * gx + vy * gy + vz * gz);
-        /* XSPH (Monaghan, JCP 82 (1989) 1, Eq 2.6): (m_j / rhobar) (v_j - v_i) W_ij; exact zeros
-         * with xsph = 0 (summed always: no branch) */
-        const ej_real wx = sigma * sph_inv_pow(inv_h, dim) * f;
-        const ej_real fx = -xsph * mk * 2.0 * inv_rho_sum * wx;
-        xs0 += fx * vx, xs1 += fx * vy, xs2 += fx * vz;
+        /* XSPH (Monaghan, JCP 82 (1989) 1, Eq 2.6): (m_j / rhobar) (v_j - v_i) W_ij */
+        if (do_xsph) { /* a constant of the instantiation: no branch in the loop */
+          const ej_real wx = sigma * sph_inv_pow(inv_h, dim) * f;
+          const ej_real fx = -xsph * mk * 2.0 * inv_rho_sum * wx;
+          xs0 += fx * vx, xs1 += fx * vy, xs2 += fx * vz;
+        }
       }
     }
     if (do_xsph) A->vx[3 * i] = xs0, A->vx[3 * i + 1] = xs1, A->vx[3 * i + 2] = xs2;
@@ -1697,17 +1792,22 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
   }
 }
 
-/* Dispatch: one instantiation per (kernel, dim, correction, art_n = 4 or not). */
+/* Dispatch: one instantiation per (kernel, dim, correction, art_n = 4 or not, XSPH or not). */
 static void sph_solid_force_rows(const sph_solid_args *A, ej_range rg)
 {
+#define SPH_SOLID_F_XS(k, d, c, a4)                                                                     \
+  do {                                                                                                  \
+    if (A->xsph > 0.0) sph_solid_force_blocked((k), (d), (c), (a4), true, A, rg);                       \
+    else sph_solid_force_blocked((k), (d), (c), (a4), false, A, rg);                                    \
+  } while (0)
 #define SPH_SOLID_F_CASE(k, d)                                                                          \
   case (k) * 4 + (d):                                                                                   \
     if (A->art_n == 4.0) {                                                                              \
-      if (A->corr) sph_solid_force_blocked((k), (d), true, true, A, rg);                                \
-      else sph_solid_force_blocked((k), (d), false, true, A, rg);                                       \
+      if (A->corr) SPH_SOLID_F_XS((k), (d), true, true);                                                \
+      else SPH_SOLID_F_XS((k), (d), false, true);                                                       \
     } else {                                                                                            \
-      if (A->corr) sph_solid_force_blocked((k), (d), true, false, A, rg);                               \
-      else sph_solid_force_blocked((k), (d), false, false, A, rg);                                      \
+      if (A->corr) SPH_SOLID_F_XS((k), (d), true, false);                                               \
+      else SPH_SOLID_F_XS((k), (d), false, false);                                                      \
     }                                                                                                   \
     break
   switch (A->kernel * 4 + A->dim) {
@@ -1715,6 +1815,7 @@ static void sph_solid_force_rows(const sph_solid_args *A, ej_range rg)
   default: break; /* unreachable: create checked kernel and dim */
   }
 #undef SPH_SOLID_F_CASE
+#undef SPH_SOLID_F_XS
 }
 
 static ej_err sph_solid_force_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
