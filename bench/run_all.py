@@ -1,8 +1,14 @@
 #!/usr/bin/python3
-"""Runs the benchmarks (SPH throughput, PySPH Sod comparison, SPH solid throughput), prints one
-summary table and writes bench/results.md (numbers, date, machine, load average).
+"""Runs the benchmarks (SPH throughput, PySPH Sod comparison, SPH solid throughput, then TL-PD,
+UL-PD and RKPM throughput and ejecta vs LAMMPS on its peridynamics examples), prints one summary
+table and writes bench/results.md (numbers, date, machine, load average).
 
-    /usr/bin/python3 bench/run_all.py --build build [--repeats 3] [--steps 40] [--profile]
+    /usr/bin/python3 bench/run_all.py --build build [--repeats 3] [--steps 40] [--profile] [--skip NAME ...]
+
+The last four are separate scripts (each has its own README/docstring and options); run_all runs
+them with their defaults (bench/lammps_peri without its 1M-particle part; it installs LAMMPS with
+apt-get when `lmp` is missing), puts their verdict lines in the summary and their whole output in
+results.md.
 
 A report, not a test: the exit status is 0 whatever the numbers are (1 only if a benchmark
 could not run at all). Wall times are the best of --repeats; other jobs on the machine slow
@@ -12,6 +18,7 @@ import argparse
 import datetime
 import os
 import platform
+import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -68,6 +75,32 @@ def summary_rows(t, s, st=None):
             rows.append(("Sod L1(rho) ejecta/PySPH (same n)", f"{e['l1'] / p['l1']:.3f}",
                          f"{e['l1']:.5f} / {p['l1']:.5f}", ""))
     return rows
+
+
+# The benchmarks that are whole scripts: name, command (after the interpreter), what it measures.
+SCRIPTS = [
+    ("tlpd_throughput", ["tlpd_throughput.py"], "TL-PD, 216,000-particle DP block, m = 3 (issue 4)"),
+    ("ulpd_throughput", ["ulpd_throughput.py"], "UL-PD against SPH on the same gas box (issue 3)"),
+    ("rkpm_throughput", ["rkpm_throughput.py"], "RKPM MSNNI, 195,112-node block (issue 9)"),
+    ("lammps_peri", ["lammps_peri/run.py", "--no-big"], "ejecta vs LAMMPS peri/pmb and peri/lps (issue 5)"),
+]
+
+
+def run_script(name, cmd, build):
+    """Runs one benchmark script; returns (verdict lines, whole output)."""
+    args = [sys.executable, os.path.join(HERE, cmd[0])] + cmd[1:]
+    args += ["--ejecta", os.path.abspath(os.path.join(build, "bin", "ejecta"))] if name == "lammps_peri" else ["--build", build]
+    p = subprocess.run(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=os.path.dirname(HERE))
+    out = p.stdout
+    if p.returncode != 0:
+        raise RuntimeError(f"exit {p.returncode}: {out[-2000:]}")
+    lines, part = [], ""
+    for ln in out.splitlines():
+        if ln.startswith("== "):  # a part of the script's report (lammps_peri: == PMB, == LPS)
+            part = ln[3:].split(":")[0].strip() + ": "
+        elif "PASS" in ln or "FAIL" in ln or "ratio" in ln:
+            lines.append(part + ln.strip())
+    return lines, out
 
 
 def busy(info):
@@ -147,6 +180,8 @@ def main():
     ap.add_argument("--n-side", type=int, default=46)
     ap.add_argument("--profile", action="store_true", help="perf profile of the throughput run")
     ap.add_argument("--results", default=os.path.join(HERE, "results.md"))
+    ap.add_argument("--skip", nargs="*", default=[], choices=[n for n, _, _ in SCRIPTS],
+                    help="leave out these script benchmarks")
     args = ap.parse_args()
     info = {"date": datetime.datetime.now().strftime("%Y-%m-%d %H:%M"), "cpu": cpu_model(),
             "nproc": os.cpu_count(), "system": f"{platform.system()} {platform.release()}",
@@ -172,6 +207,19 @@ def main():
     except Exception as e:  # noqa: BLE001
         print(f"sph_solid_throughput failed: {type(e).__name__}: {e}")
         failed += 1
+    scripts = {}
+    for name, cmd, what in SCRIPTS:
+        if name in args.skip:
+            continue
+        try:
+            print(f"\n=== {name}", flush=True)
+            lines, out = run_script(name, cmd, args.build)
+            print(out, end="", flush=True)
+            scripts[name] = (what, lines, out)
+        except Exception as e:  # noqa: BLE001
+            print(f"{name} failed: {type(e).__name__}: {e}")
+            scripts[name] = (what, [f"could not run: {type(e).__name__}"], str(e))
+            failed += 1
     info["load_after"] = tp.loadavg()
 
     print(f"\n=== benchmark summary ({info['cpu']}, nproc {info['nproc']}, load {info['load_before']} -> "
@@ -181,10 +229,19 @@ def main():
     if busy(info):
         print(f"  WARNING: 1-min load {info['load_before'].split()[0]} before the runs: other jobs were running; "
               "the 2-thread numbers especially are not meaningful")
+    for name, (what, lines, _) in scripts.items():
+        for ln in lines:
+            print(f"  {name}: {ln}")
+    text = markdown(t, s, info, st)
+    for name, (what, lines, out) in scripts.items():
+        text += f"\n## {what} (`bench/{dict((n, c[0]) for n, c, _ in SCRIPTS)[name]}`)\n\n"
+        text += "Verdict and ratio lines:\n\n" + "".join(f"- {ln}\n" for ln in lines)
+        if out:
+            text += "\nWhole output:\n\n```\n" + out.rstrip() + "\n```\n"
     with open(args.results, "w") as f:
-        f.write(markdown(t, s, info, st))
+        f.write(text)
     print(f"  wrote {os.path.relpath(args.results)}")
-    return 1 if failed == 3 else 0
+    return 1 if failed == 3 + len(SCRIPTS) else 0
 
 
 if __name__ == "__main__":
