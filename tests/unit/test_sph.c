@@ -8,6 +8,7 @@
 
 #include "core_impl.h"
 #include "../../plugins/methods/sph/sph_kernels.h"
+#include "rate_sums.h"
 
 const ej_plugin_info *ej_plugin_sph_info(void);
 const ej_plugin_info *ej_plugin_ideal_gas_info(void);
@@ -266,19 +267,11 @@ static void check_conservation(int dim, int kernel, bool variable_h, bool correc
   fix_compute(&f);
   const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
   const ej_real *wdot = ej_set_field(f.set, "w_visc_dot");
-  double P[3] = {0, 0, 0}, Pabs = 0, E = 0, Eabs = 0, W = 0;
+  const rate_sums rs = rate_sums_of(n, m, v, a, edot);
+  const double *P = rs.P, Pabs = rs.Pabs, E = rs.E, Eabs = rs.Eabs;
+  double W = 0;
   ej_off pairs = f.list->pub.off[n];
-  for (ej_idx i = 0; i < n; ++i) {
-    for (int d = 0; d < 3; ++d) {
-      P[d] += m[i] * a[3 * i + d];
-      Pabs += fabs(m[i] * a[3 * i + d]);
-      E += m[i] * v[3 * i + d] * a[3 * i + d];
-      Eabs += fabs(m[i] * v[3 * i + d] * a[3 * i + d]);
-    }
-    E += m[i] * edot[i];
-    Eabs += fabs(m[i] * edot[i]);
-    W += m[i] * wdot[i];
-  }
+  for (ej_idx i = 0; i < n; ++i) W += m[i] * wdot[i];
   ck_assert_msg(pairs > (dim == 1 ? 4 : 10) * n, "too few pairs (%ld)", (long)pairs);
   ck_assert(Pabs > 0 && Eabs > 0);
   for (int d = 0; d < 3; ++d)
@@ -600,19 +593,9 @@ END_TEST
 static void rate_residuals(ej_idx n, const ej_real *m, const ej_real *v, const ej_real *a, const ej_real *edot,
                            double *mom, double *en)
 {
-  double P[3] = {0, 0, 0}, Pabs = 0, E = 0, Eabs = 0;
-  for (ej_idx i = 0; i < n; ++i) {
-    for (int d = 0; d < 3; ++d) {
-      P[d] += m[i] * a[3 * i + d];
-      Pabs += fabs(m[i] * a[3 * i + d]);
-      E += m[i] * v[3 * i + d] * a[3 * i + d];
-      Eabs += fabs(m[i] * v[3 * i + d] * a[3 * i + d]);
-    }
-    E += m[i] * edot[i];
-    Eabs += fabs(m[i] * edot[i]);
-  }
-  *mom = sqrt(P[0] * P[0] + P[1] * P[1] + P[2] * P[2]) / Pabs;
-  *en = fabs(E) / Eabs;
+  const rate_sums r = rate_sums_of(n, m, v, a, edot);
+  *mom = sqrt(r.P[0] * r.P[0] + r.P[1] * r.P[1] + r.P[2] * r.P[2]) / r.Pabs;
+  *en = fabs(r.E) / r.Eabs;
 }
 
 static void shape_rates(int dim, bool symmetric, bool cloud, double *mom, double *en, int *nfb)

@@ -5,6 +5,7 @@
  * correction), the artificial stress acts in tension only, and the configuration checks. */
 #include "validation_common.h"
 #include "ejecta/tensor.h"
+#include "rate_sums.h"
 
 const ej_plugin_info *ej_plugin_elastic_info(void);
 const ej_plugin_info *ej_plugin_von_mises_info(void);
@@ -280,16 +281,10 @@ static void check_conservation(int dim, bool corr, bool art)
   fix_compute(&f);
   const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
   const ej_real *wdot = ej_set_field(f.set, "w_visc_dot"), *R = ej_set_field(f.set, "art_stress");
-  double P[3] = {0, 0, 0}, Pabs = 0, E = 0, Eabs = 0, W = 0, Rabs = 0;
+  const rate_sums rs = rate_sums_of(n, m, v, a, edot);
+  const double *P = rs.P, Pabs = rs.Pabs, E = rs.E, Eabs = rs.Eabs;
+  double W = 0, Rabs = 0;
   for (ej_idx i = 0; i < n; ++i) {
-    for (int d = 0; d < 3; ++d) {
-      P[d] += m[i] * a[3 * i + d];
-      Pabs += fabs(m[i] * a[3 * i + d]);
-      E += m[i] * v[3 * i + d] * a[3 * i + d];
-      Eabs += fabs(m[i] * v[3 * i + d] * a[3 * i + d]);
-    }
-    E += m[i] * edot[i];
-    Eabs += fabs(m[i] * edot[i]);
     W += m[i] * wdot[i];
     for (int k = 0; k < 6; ++k) Rabs += fabs(R[6 * i + k]);
   }

@@ -139,28 +139,54 @@ END_TEST
 
 /* A pre-stressed block turned rigidly between x_prev = R0 x0 and x = R1 x0: the Hughes-Winget
  * increment is exactly dR = R1 R0^T and d = 0, so the stress is exactly dR sigma dR^T. */
+static const double rot_th0 = 0.3, rot_th1 = 0.35;
+static const ej_real rot_s0[6] = {-2e6, 1e6, 0.5e6, 0.7e6, -0.2e6, 0.1e6};
+
+static void rot_about_z(ej_real R[9], double th)
+{
+  const ej_real Q[9] = {cos(th), -sin(th), 0, sin(th), cos(th), 0, 0, 0, 1};
+  memcpy(R, Q, sizeof Q);
+}
+
+/* Opens a 5 cm block of tlpd with the extra set options, places it rigidly turned (x_prev =
+ * R(th0) x0, x = R(th1) x0) with the stress rot_s0 everywhere, and computes one step; returns the
+ * stress (the run stays open in r). */
+static ej_real *rotated_block(trun *r, const char *opts)
+{
+  char text[1024];
+  snprintf(text, sizeof text,
+           "ejecta: 1\ndimension: 3\ntime: {end: 1e-6}\n" MAT
+           "sets: {b: {method: tlpd, material: m, %sshape: {box: {min: [0, 0, 0], max: [0.05, 0.05, 0.05]}}, "
+           "spacing: 0.01}}\n",
+           opts);
+  trun_open(r, text);
+  ej_set *s = r->sim->sets[0];
+  ck_assert(ej_set_dt(s) > 0);
+  ej_real *x = ej_set_field(s, "x"), *xp = ej_set_field(s, "x_prev"), *sig = ej_set_field(s, "stress");
+  const ej_real *x0 = ej_set_field(s, "x0");
+  ej_real R0[9], R1[9];
+  rot_about_z(R0, rot_th0);
+  rot_about_z(R1, rot_th1);
+  for (ej_idx i = 0; i < ej_set_count(s); ++i) {
+    ej_m3_apply(xp + 3 * i, R0, x0 + 3 * i);
+    ej_m3_apply(x + 3 * i, R1, x0 + 3 * i);
+    memcpy(sig + 6 * i, rot_s0, sizeof rot_s0);
+  }
+  trun_compute(r);
+  return sig;
+}
+
 START_TEST(test_rigid_rotation_exact)
 {
   trun r;
-  trun_open(&r, "ejecta: 1\ndimension: 3\ntime: {end: 1e-6}\n" MAT
-                "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0, 0, 0], max: [0.05, 0.05, 0.05]}}, "
-                "spacing: 0.01}}\n");
+  const ej_real *s0 = rot_s0;
+  ej_real *sig = rotated_block(&r, "");
   ej_set *s = r.sim->sets[0];
-  ck_assert(ej_set_dt(s) > 0);
   const ej_idx n = ej_set_count(s);
-  ej_real *x = ej_set_field(s, "x"), *xp = ej_set_field(s, "x_prev"), *sig = ej_set_field(s, "stress");
-  const ej_real *x0 = ej_set_field(s, "x0");
-  const double th0 = 0.3, th1 = 0.35;
-  const ej_real R0[9] = {cos(th0), -sin(th0), 0, sin(th0), cos(th0), 0, 0, 0, 1};
-  const ej_real R1[9] = {cos(th1), -sin(th1), 0, sin(th1), cos(th1), 0, 0, 0, 1};
-  const ej_real s0[6] = {-2e6, 1e6, 0.5e6, 0.7e6, -0.2e6, 0.1e6};
-  for (ej_idx i = 0; i < n; ++i) {
-    ej_m3_apply(xp + 3 * i, R0, x0 + 3 * i);
-    ej_m3_apply(x + 3 * i, R1, x0 + 3 * i);
-    memcpy(sig + 6 * i, s0, sizeof s0);
-  }
-  trun_compute(&r);
-  const ej_real dR[9] = {cos(th1 - th0), -sin(th1 - th0), 0, sin(th1 - th0), cos(th1 - th0), 0, 0, 0, 1};
+  ej_real R1[9];
+  rot_about_z(R1, rot_th1);
+  const ej_real dR[9] = {cos(rot_th1 - rot_th0), -sin(rot_th1 - rot_th0), 0, sin(rot_th1 - rot_th0),
+                         cos(rot_th1 - rot_th0), 0, 0, 0, 1};
   ej_real want[6];
   ej_s6_rotate(want, dR, s0);
   const ej_real *F = ej_set_field(s, "F");
@@ -171,18 +197,8 @@ START_TEST(test_rigid_rotation_exact)
   trun_close(&r);
 
   /* without the objective update the stress is left in the old orientation */
-  trun_open(&r, "ejecta: 1\ndimension: 3\ntime: {end: 1e-6}\n" MAT
-                "sets: {b: {method: tlpd, material: m, objective: false, shape: {box: {min: [0, 0, 0], max: [0.05, 0.05, 0.05]}}, "
-                "spacing: 0.01}}\n");
+  sig = rotated_block(&r, "objective: false, ");
   s = r.sim->sets[0];
-  x = ej_set_field(s, "x"), xp = ej_set_field(s, "x_prev"), sig = ej_set_field(s, "stress");
-  x0 = ej_set_field(s, "x0");
-  for (ej_idx i = 0; i < ej_set_count(s); ++i) {
-    ej_m3_apply(xp + 3 * i, R0, x0 + 3 * i);
-    ej_m3_apply(x + 3 * i, R1, x0 + 3 * i);
-    memcpy(sig + 6 * i, s0, sizeof s0);
-  }
-  trun_compute(&r);
   ck_assert(fabs(sig[0] - want[0]) > 1e4);
   /* nonobjective: rate (default): d = sym(h) of a rigid rotation is zero, the stress stays s0 */
   for (ej_idx i = 0; i < ej_set_count(s); ++i)
@@ -190,18 +206,7 @@ START_TEST(test_rigid_rotation_exact)
   trun_close(&r);
 
   /* nonobjective: small_strain: sym(R1 - R0) is not zero, the rigid rotation strains the body */
-  trun_open(&r, "ejecta: 1\ndimension: 3\ntime: {end: 1e-6}\n" MAT
-                "sets: {b: {method: tlpd, material: m, objective: false, nonobjective: small_strain, "
-                "shape: {box: {min: [0, 0, 0], max: [0.05, 0.05, 0.05]}}, spacing: 0.01}}\n");
-  s = r.sim->sets[0];
-  x = ej_set_field(s, "x"), xp = ej_set_field(s, "x_prev"), sig = ej_set_field(s, "stress");
-  x0 = ej_set_field(s, "x0");
-  for (ej_idx i = 0; i < ej_set_count(s); ++i) {
-    ej_m3_apply(xp + 3 * i, R0, x0 + 3 * i);
-    ej_m3_apply(x + 3 * i, R1, x0 + 3 * i);
-    memcpy(sig + 6 * i, s0, sizeof s0);
-  }
-  trun_compute(&r);
+  sig = rotated_block(&r, "objective: false, nonobjective: small_strain, ");
   double dmax = 0;
   for (int k = 0; k < 6; ++k) dmax = fmax(dmax, fabs(sig[k] - s0[k]));
   ck_assert_msg(dmax > 1e-6 * 2e6, "small_strain: stress change %g", dmax);

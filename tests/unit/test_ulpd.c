@@ -6,6 +6,7 @@
  * rigid spin); the time step. */
 #include "validation_common.h"
 #include "ejecta/tensor.h"
+#include "rate_sums.h"
 
 const ej_plugin_info *ej_plugin_ulpd_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
@@ -278,18 +279,10 @@ static void check_conservation(int dim)
   fix_compute(&f);
   const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
   const ej_real *wdot = ej_set_field(f.set, "w_visc_dot");
-  double P[3] = {0, 0, 0}, Pabs = 0, E = 0, Eabs = 0, W = 0;
-  for (ej_idx i = 0; i < n; ++i) {
-    for (int d = 0; d < 3; ++d) {
-      P[d] += m[i] * a[3 * i + d];
-      Pabs += fabs(m[i] * a[3 * i + d]);
-      E += m[i] * v[3 * i + d] * a[3 * i + d];
-      Eabs += fabs(m[i] * v[3 * i + d] * a[3 * i + d]);
-    }
-    E += m[i] * edot[i];
-    Eabs += fabs(m[i] * edot[i]);
-    W += m[i] * wdot[i];
-  }
+  const rate_sums rs = rate_sums_of(n, m, v, a, edot);
+  const double *P = rs.P, Pabs = rs.Pabs, E = rs.E, Eabs = rs.Eabs;
+  double W = 0;
+  for (ej_idx i = 0; i < n; ++i) W += m[i] * wdot[i];
   ck_assert(Pabs > 0 && Eabs > 0);
   for (int d = 0; d < 3; ++d)
     ck_assert_msg(fabs(P[d]) < 1e-13 * Pabs, "dim %d: momentum rate %g (scale %g)", dim, P[d], Pabs);

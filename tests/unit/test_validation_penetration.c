@@ -61,42 +61,38 @@ static int pen_series(hid_t f, const char *group, const char *name, double *buf,
   return (int)dims[0];
 }
 
+static ej_err pen_vopen(vscene *c, const ej_plugin_info *const *p, int np, const char *fmt, ...)
+{
+  va_list ap;
+  va_start(ap, fmt);
+  ej_err rc = vscene_open(c, "penetration", p, np, fmt, ap);
+  va_end(ap);
+  return rc;
+}
+
 START_TEST(test_penetration_90deg_coarse)
 {
   const ej_plugin_info *pl[] = {ej_plugin_rkpm_info(), ej_plugin_rigid_body_info(), ej_plugin_kernel_contact_info(),
                                 ej_plugin_dp_damage_info()};
-  char dir[64], scene[128], out[128];
-  vrun_dir(dir, sizeof dir, "penetration");
-  snprintf(scene, sizeof scene, "%s/p.yaml", dir);
-  snprintf(out, sizeof out, "%s/out.h5", dir);
-  char text[4096];
-  snprintf(text, sizeof text, PEN_SCENE, PEN_T_END);
-  vrun_write(scene, text);
-  vrun r;
-  memset(&r, 0, sizeof r);
-  ck_assert_int_eq(ej_registry_create(&r.reg), EJ_OK);
-  for (int k = 0; k < 4; ++k) ck_assert_int_eq(ej_registry_add_static(r.reg, pl[k]), EJ_OK);
-  ej_err rc = ej_scene_load(scene, r.reg, &r.scene);
+  vscene c;
+  ej_err rc = pen_vopen(&c, pl, 4, PEN_SCENE, PEN_T_END);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
-  ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = 1};
-  rc = ej_sim_create(r.scene, r.reg, &opts, &r.sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  const double e0 = r.sim->energy.kinetic + r.sim->energy.internal;
-  vrun_run(&r);
-  ck_assert_double_eq_tol(r.sim->t, PEN_T_END, 1e-12);
+  const char *out = c.out;
+  const double e0 = c.r.sim->energy.kinetic + c.r.sim->energy.internal;
+  vrun_run(&c.r);
+  ck_assert_double_eq_tol(c.r.sim->t, PEN_T_END, 1e-12);
   /* guard counter: moment-matrix fallbacks of the soil */
   const ej_set *soil = NULL;
-  for (int k = 0; k < r.sim->n_sets; ++k)
-    if (strcmp(ej_set_name(r.sim->sets[k]), "soil") == 0) soil = r.sim->sets[k];
+  for (int k = 0; k < c.r.sim->n_sets; ++k)
+    if (strcmp(ej_set_name(c.r.sim->sets[k]), "soil") == 0) soil = c.r.sim->sets[k];
   ck_assert_ptr_nonnull(soil);
   const int32_t *fb = ej_set_field_int(soil, "rk_fallbacks");
   ck_assert_ptr_nonnull(fb);
   long long fallbacks = 0;
   for (ej_idx i = 0; i < ej_set_count(soil); ++i) fallbacks += fb[i];
-  const double bal_end = r.sim->energy.balance;
-  vrun_free(&r);
+  const double bal_end = c.r.sim->energy.balance;
+  vrun_free(&c.r); /* closes the output before it is read */
 
   static double t[PEN_MAXSTEP], y[PEN_MAXSTEP], vy[PEN_MAXSTEP], bal[PEN_MAXSTEP], mass[PEN_MAXSTEP], py[PEN_MAXSTEP];
   hid_t f = H5Fopen(out, H5F_ACC_RDONLY, H5P_DEFAULT);
@@ -132,8 +128,7 @@ START_TEST(test_penetration_90deg_coarse)
   const double d_end = -(tip0 + y[n - 1] - y0);
   ck_assert_msg(fabs(d_end / PEN_DEPTH_40MS - 1) < PEN_TOL, "tip depth at 40 ms %.4f m, regression value %.4f m (tolerance %g)",
                 d_end, PEN_DEPTH_40MS, PEN_TOL);
-  const char *names[] = {"p.yaml", "out.h5", "out.xdmf"};
-  vrun_cleanup(dir, names, 3);
+  vscene_free(&c);
 }
 END_TEST
 

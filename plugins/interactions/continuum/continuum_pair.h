@@ -232,14 +232,10 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
         de += mj * (dv[0] * Sig[0] + dv[1] * Sig[1] + dv[2] * Sig[2]);
       }
       if (cond) {
-        /* dq_i += m_j v_sig (e_i - e_j)/rhobar dW/dr, v_sig = sqrt(|p_i - p_j|/rhobar); a line-mass
-         * (spherical) side weighs the pair by rbar^2/r_i^2, rbar = (|r_i| + |r_j|)/2, so that
-         * m_i dq_i = -m_j dq_j with the shell masses m = 4 pi r^2 mu (energy to round-off) */
-        const ej_real p_j = -(sj[0] + sj[1] + sj[2]) / 3.0, rhobar = 0.5 * (rho_i + B->rho[j]);
-        const ej_real vsig = sqrt(fabs(p_i - p_j) / rhobar);
-        const ej_real rbar = 0.5 * (ai_abs + fabs(B->x[3 * j]));
-        const ej_real geo = A->line ? rbar * rbar * inv_ai2 : 1.0;
-        dq += mj * geo * vsig * (A->e[i] - B->e[j]) / rhobar * dwdr;
+        /* the pair of sph_cond_pair (a line-mass side weighs it by rbar^2/r_i^2: energy to round-off) */
+        const ej_real p_j = -(sj[0] + sj[1] + sj[2]) / 3.0;
+        dq += sph_cond_pair(mj, p_i, p_j, rho_i, B->rho[j], A->e[i], B->e[j], A->line, ai_abs, fabs(B->x[3 * j]),
+                            inv_ai2, dwdr);
       }
       const ej_real vg = dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2];
       if (psi < 0) drho -= (mj / B->rho[j]) * vg;

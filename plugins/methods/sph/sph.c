@@ -1938,11 +1938,7 @@ static ej_err sph_cond_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
       if (r2 >= 4.0 * hbar * hbar || r2 <= 0.0) continue;
       const ej_real inv_h = 1.0 / hbar, rr = sqrt(r2);
       const ej_real dwdr = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, rr * inv_h);
-      const ej_real rhobar = 0.5 * (rhoi + rho[j]);
-      const ej_real vsig = sqrt(fabs(pi - p[j]) / rhobar);
-      const ej_real rbar = 0.5 * (ai + fabs(x[3 * j]));
-      const ej_real geo = sph_sph ? rbar * rbar * inv_ri2 : 1.0;
-      de += m[j] * geo * vsig * (ei - e[j]) / rhobar * dwdr;
+      de += sph_cond_pair(m[j], pi, p[j], rhoi, rho[j], ei, e[j], sph_sph, ai, fabs(x[3 * j]), inv_ri2, dwdr);
     }
     e_dot[i] += au * de;
   }

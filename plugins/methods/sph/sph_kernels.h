@@ -90,4 +90,20 @@ static inline ej_real sph_kernel_dw(int kernel, int dim, ej_real r, ej_real h)
   return sph_kernel_sigma(kernel, dim) * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h);
 }
 
+/* One pair of the artificial conductivity (Price, J. Comput. Phys. 227 (2008) 10040, section 4),
+ * shared by sph's own pairs and `continuum`'s cross-set pairs:
+ *   m_j v_sig (e_i - e_j) / rhobar dW/dr,   v_sig = sqrt(|p_i - p_j| / rhobar), rhobar = (rho_i + rho_j)/2;
+ * with line masses (geometry: spherical, 1D, x = r) the pair is weighted by rbar^2 / r_i^2, rbar =
+ * (|r_i| + |r_j|)/2 (inv_ri2 = 1/r_i^2), so that m_i de_i = -m_j de_j with shell masses 4 pi r^2 mu. */
+static inline ej_real sph_cond_pair(ej_real mj, ej_real pi, ej_real pj, ej_real rhoi, ej_real rhoj, ej_real ei,
+                                    ej_real ej, bool line, ej_real ri_abs, ej_real rj_abs, ej_real inv_ri2,
+                                    ej_real dwdr)
+{
+  const ej_real rhobar = 0.5 * (rhoi + rhoj);
+  const ej_real vsig = sqrt(fabs(pi - pj) / rhobar);
+  const ej_real rbar = 0.5 * (ri_abs + rj_abs);
+  const ej_real geo = line ? rbar * rbar * inv_ri2 : 1.0;
+  return mj * geo * vsig * (ei - ej) / rhobar * dwdr;
+}
+
 #endif /* EJ_SPH_KERNELS_H */
