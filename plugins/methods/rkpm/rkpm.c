@@ -1125,11 +1125,14 @@ static inline void rk_box_close(const rk_state *s, ej_idx i, ej_idx kb, const ej
         if (!s->lagrangian) ej_s6_rotate(ss[xi], Q, ss[xi]);
         ej_real de[6];
         ej_m3_sym(de, dGm + (size_t)(kb * RK_NS_MAX + xi) * 9);
-        const ej_real tr = de[0] + de[1] + de[2];
-        if (s->sdev) /* deviatoric part only: 2 G dev(de) */
-          for (int k = 0; k < 6; ++k) ss[xi][k] += w * dt * 2.0 * Gs * (de[k] - (k < 3 ? tr / 3.0 : 0.0));
-        else
+        if (s->sdev) { /* deviatoric part only: 2 G dev(de) */
+          ej_real dd[6];
+          ej_s6_dev(dd, de);
+          for (int k = 0; k < 6; ++k) ss[xi][k] += w * dt * 2.0 * Gs * dd[k];
+        } else {
+          const ej_real tr = ej_s6_trace(de);
           for (int k = 0; k < 6; ++k) ss[xi][k] += w * dt * (2.0 * Gs * de[k] + (k < 3 ? lam * tr : 0.0));
+        }
       }
       ps += ej_s6_ddot(ss[xi], dp);
       ej_real sx[9];
@@ -1250,10 +1253,7 @@ static ej_err rk_subbox_material(const rk_state *s, ej_range rb, const ej_real *
       for (int xi = 0; xi < ns; ++xi) {
         const int j = (int)(i - n0) * ns + xi;
         for (int k = 0; k < 6; ++k) ss[xi][k] = dead ? 0.0 : st[6 * j + k] - sg[6 * i + k];
-        if (s->sdev) { /* keep the deviator of D_xi (a dilatant return can shift the mean stress) */
-          const ej_real tr3 = (ss[xi][0] + ss[xi][1] + ss[xi][2]) / 3.0;
-          for (int k = 0; k < 3; ++k) ss[xi][k] -= tr3;
-        }
+        if (s->sdev) ej_s6_dev(ss[xi], ss[xi]); /* keep the deviator of D_xi (a dilatant return can shift the mean stress) */
       }
       rk_ss_put(ssf, i, ns, ss);
     }
