@@ -25,6 +25,10 @@ Pso = max over frames of p - 101325 Pa (printed also from every 20 us of the sam
 arrival = first frame time at which the gauge overpressure reaches half of its peak (linear
 interpolation between frames). --cond-air / --cond-cpl: artificial conductivity of the air set
 and of the contact (README "Gauge sampling and artificial conductivity at the contact").
+--air-renormalize (default 1) / --air-h-factor (default 1.5): the air set's sph `renormalize`
+and `h_factor` (README "Density drift": without the renormalisation the continuity density of the
+expanding shocked air drifts 20-60 % above the particles' and holds the shell's energy as
+compression; 0 / 0 give the runs before).
 
     /usr/bin/python3 validation/charge_in_air/check.py --build build [--nc 10 20] [--reuse]
     /usr/bin/python3 validation/charge_in_air/check.py --write-example   (examples/charge_in_air_1d.yaml)
@@ -53,13 +57,20 @@ T_END = 11e-3
 EVERY = 20e-6
 
 
-def scene(nc, out="out/charge_in_air_1d.h5", t_end=T_END, every=EVERY, charge_refine=1, cond_air=0.0, cond_cpl=0.0):
+def scene(nc, out="out/charge_in_air_1d.h5", t_end=T_END, every=EVERY, charge_refine=1, cond_air=0.0, cond_cpl=0.0,
+          air_renormalize=False, air_h_factor=0.0):
     """nc: air spacings across r0 (dx = r0/nc); the charge's spacing is dx/charge_refine (README
     "Break-out: the charge's resolution"). cond_air, cond_cpl: artificial conductivity alpha_u of the
     air set (sph `conductivity`) and of the charge/air interface (continuum `conductivity`); 0 is off
-    (README "Gauge sampling and artificial conductivity at the contact")."""
+    (README "Gauge sampling and artificial conductivity at the contact"). air_renormalize: sph
+    `renormalize: true` on the air (the method's default; README "Density drift"); air_h_factor: the
+    air's sph h_factor (0: the 1D default, 2)."""
     air_cond = f"\n    conductivity: {cond_air:g}  # artificial conductivity (Price 2008)" if cond_air > 0 else ""
     cpl_cond = f", conductivity: {cond_cpl:g}" if cond_cpl > 0 else ""
+    air_ren = ("true  # the sph default: the continuity density stays with the particles (validation/charge_in_air/README.md \"Density drift\")"
+               if air_renormalize else "false")
+    if air_h_factor > 0:
+        air_ren += f"\n    h_factor: {air_h_factor:g}  # h = {air_h_factor:g} dx (1D default 2: same section)"
     r0 = (3 * W / (4 * math.pi * RHO_TNT)) ** (1 / 3)
     dx = r0 / nc
     dxc = dx / charge_refine
@@ -95,7 +106,7 @@ sets:
     material: air
     geometry: spherical
     spherical_energy: pair
-    renormalize: false{air_cond}
+    renormalize: {air_ren}{air_cond}
     rho_min: 0.01
     # The innermost air shells are swept out with the products and stretched over r^2: their
     # radial thickness m/(4 pi r^2 rho), hence h, falls 100x (h = 7e-5 m at 0.6 m, dt 6e-9 s).
@@ -161,13 +172,19 @@ def main(argv=None):
     ap.add_argument("--cond-air", type=float, default=1.0, help="sph conductivity (alpha_u) of the air set (0: off, "
                     "the runs before)")
     ap.add_argument("--cond-cpl", type=float, default=1.0, help="continuum conductivity (alpha_u) at the contact (0: off)")
+    ap.add_argument("--air-renormalize", type=int, default=1, help="1: sph renormalize: true on the air (README "
+                    "\"Density drift\"; 0: the runs before)")
+    ap.add_argument("--air-h-factor", type=float, default=1.5, help="sph h_factor of the air (README \"Density drift\"; "
+                    "0: the 1D default 2, the runs before)")
+    ap.add_argument("--t-end", type=float, default=T_END, help="end time [s] (short diagnostic runs)")
     ap.add_argument("--fd", nargs="*", default=[], help="lagrange1d.py --save files: the FD reference's peaks in the "
                     "figure (label from the file name)")
     a = ap.parse_args(argv)
     if a.write_example:
         path = os.path.join(common.ROOT, "examples", "charge_in_air_1d.yaml")
         with open(path, "w") as f:
-            f.write(scene(20, every=a.every, charge_refine=a.charge_refine, cond_air=a.cond_air, cond_cpl=a.cond_cpl))
+            f.write(scene(20, every=a.every, charge_refine=a.charge_refine, cond_air=a.cond_air, cond_cpl=a.cond_cpl,
+                          air_renormalize=bool(a.air_renormalize), air_h_factor=a.air_h_factor))
         print("wrote", path)
         return 0
     exe = common.ejecta_binary(a.build)
@@ -177,8 +194,13 @@ def main(argv=None):
         name += f"_e{1e6 * a.every:g}us" if a.every != EVERY else ""
         name += f"_ka{a.cond_air:g}" if a.cond_air > 0 else ""
         name += f"_kc{a.cond_cpl:g}" if a.cond_cpl > 0 else ""
-        h5, wall = common.run(exe, scene(nc, out=name + ".h5", every=a.every, charge_refine=a.charge_refine,
-                                         cond_air=a.cond_air, cond_cpl=a.cond_cpl), name, a.out,
+        name += "_ren" if a.air_renormalize else ""
+        name += f"_h{a.air_h_factor:g}" if a.air_h_factor > 0 else ""
+        name += f"_t{1e3 * a.t_end:g}ms" if a.t_end != T_END else ""
+        h5, wall = common.run(exe, scene(nc, out=name + ".h5", t_end=a.t_end, every=a.every, charge_refine=a.charge_refine,
+                                         cond_air=a.cond_air, cond_cpl=a.cond_cpl,
+                                         air_renormalize=bool(a.air_renormalize), air_h_factor=a.air_h_factor),
+                              name, a.out,
                               threads=a.threads, reuse=a.reuse)
         Wc = charge_mass(h5)
         _, t, xs, ps = analyse(h5)
