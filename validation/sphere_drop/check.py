@@ -34,13 +34,26 @@ def uehara(h, mu=math.tan(math.radians(25)), rb=7800.0, rg=1500.0):
     return d
 
 
+def surface(s, depth):
+    """Free surface of the bed: the top lattice layer + s/2. The cubic lattice is anchored at the
+    box's minimum (core/src/geometry.c ej_lattice_site: centres at lo + (k + 1/2) s), so the top
+    layer is at -s/2 only when depth/s is an integer (6, 4, 3 mm); at 5 mm it is at -1.5 mm and
+    the surface at +1 mm. Depths are measured from this surface (Seguin: depth of the ball's
+    bottom below the free surface)."""
+    k = math.floor(depth / s - 0.5 + 1e-9)  # last k with -depth + (k + 1/2) s < 0
+    while -depth + (k + 0.5) * s >= 0:
+        k -= 1
+    zs = -depth + (k + 0.5) * s + 0.5 * s
+    return 0.0 if abs(zs) < 1e-9 * s else zs
+
+
 def scene(h, s, t_end, phi, damage, width, depth, ball_mod, sb, integration="msnni", msnni_stress="material",
           msnni_w=0.5, stabilization=None, extra_bed="", bed=None, mu=0.3, every="0.5 ms", tag="sphere_drop",
           header=None):
     """The scene; bed (the bed set's method lines) and the rest let validation/sphere_drop_methods
     put another method under the same ball, material, contact and walls."""
     v = math.sqrt(2 * G * h)
-    zc = R + 0.5 * s  # ball just above the surface (gap s/2)
+    zc = surface(s, depth) + R + 0.5 * s  # ball just above the surface (gap s/2)
     stab = "" if stabilization is None else f"\n    stabilization: {stabilization}"
     if bed is None:
         bed = (f"method: rkpm\n    integration: {integration}\n    msnni_stress: {msnni_stress}\n"
@@ -138,8 +151,7 @@ def main():
         r1 = os.times()
         cpu = (r1.children_user - r0.children_user) + (r1.children_system - r0.children_system)
         t, zc, vz, fz, mass = ball_track(path)
-        zc0 = R + 0.5 * s
-        pen = -(zc - zc0) - 0.5 * s  # depth of the (rigid, exact-sphere) ball's lowest point below the surface
+        pen = surface(s, a.depth) - (zc - R)  # depth of the (rigid, exact-sphere) ball's lowest point below the surface
         delta = float(np.max(pen))
         v_end = float(vz[-1])
         m_exact = 7800 * math.pi / 3 * R ** 3  # quarter sphere
