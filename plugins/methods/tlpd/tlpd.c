@@ -213,6 +213,11 @@ typedef struct tlpd_state {
   ej_real *egf;        /* [3n] K_i e_i: the force of a uniform P on row i is P_i e_i = PK_i (K_i e_i) */
   ej_real *m1;         /* [3n] first moment sum_j w_ij V_j X over intact bonds (force pass: sum_j A G_i X = G_i m1) */
   int32_t *n_fallback; /* [n] particle-steps with a singular K */
+  ej_idx *jmax;        /* [n] largest neighbour index of the row (a 4-wide load of any neighbour's
+                        * VEC3 stays inside the array when jmax + 1 < nall: no per-bond test) */
+  uint8_t *notok;      /* [n] status != TLPD_OK (kept by refresh_row, counted in n_notok) */
+  atomic_int n_notok;  /* rows with a singular K or detached: 0 = every row (so every ghost, a copy
+                        * of one) is a correspondence point, and the force loop needs no status test */
   /* stable step of the current family (tlpd_stable_dt): per row h_self = |K^-1 m1| and
    * H = sum_l |g_l| + h_self, g_l = w V_l K^-1 X_l (reference quantities, change only when
    * bonds break); cached 2/sqrt(lambda_i), the time it was computed, the last refresh time */
@@ -280,6 +285,7 @@ static void tlpd_free_arrays(tlpd_state *s)
   ej_free(s->fprev_ok), ej_free(s->m1), ej_free(s->row_intact), ej_free(s->aint), ej_free(s->vpred), ej_free(s->vp_ok), ej_free(s->dxp), ej_free(s->nbroken);
   ej_free(s->mixed), ej_free(s->full), ej_free(s->gf_state), ej_free(s->egf);
   ej_free(s->hself), ej_free(s->hsum), ej_free(s->dt_fam), ej_free(s->dt_fam_t);
+  ej_free(s->jmax), ej_free(s->notok);
 }
 
 static void tlpd_destroy(void *state)
@@ -319,6 +325,7 @@ static ej_err tlpd_create(const void *config, ej_set *set, const ej_model *model
   s->t_last = -INFINITY;
   atomic_init(&s->ready, 0);
   atomic_init(&s->any_failed, 0);
+  atomic_init(&s->n_notok, 0);
   *state = s;
   return EJ_OK;
 }
@@ -338,6 +345,14 @@ typedef double tlpd_v4u __attribute__((vector_size(32), aligned(8), may_alias));
 /* the 3-vector of particle j of a VEC3 field with nall particles: one 4-wide load (lane 3 =
  * the next particle's first component, never used) except for the last particle */
 #define TLPD_LDJ(a, j, nall) ((j) + 1 < (nall) ? TLPD_LD4((a) + 3 * (size_t)(j)) : TLPD_LD3((a) + 3 * (size_t)(j)))
+
+/* a * b + c, contracted as the general force loop's A Ci + B C_j is (an FMA where the target has
+ * one, so that the fast loop gives the same bits; plain multiply-add otherwise, no libm call) */
+#ifdef __FMA__
+#define TLPD_MADD(a, b, c) fma((a), (b), (c))
+#else
+#define TLPD_MADD(a, b, c) ((a) * (b) + (c))
+#endif
 
 static inline ej_real tlpd_root(int dim, ej_real v) { return dim == 3 ? cbrt(v) : dim == 2 ? sqrt(v) : v; }
 
@@ -435,6 +450,8 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
   s->gf_state = ej_calloc(nn, 1);
   s->egf = ej_calloc(3 * nn, sizeof *s->egf);
   s->n_fallback = ej_calloc(nn, sizeof *s->n_fallback);
+  s->jmax = ej_calloc(nn, sizeof *s->jmax);
+  s->notok = ej_calloc(nn, 1);
   s->hself = ej_calloc(nn, sizeof *s->hself);
   s->hsum = ej_calloc(nn, sizeof *s->hsum);
   s->dt_fam = ej_calloc(nn, sizeof *s->dt_fam);
@@ -448,7 +465,7 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
   }
   if (!s->wa || !s->wb || !s->Kinv || !s->d6 || !s->wp || !s->area || !s->row_ready || !s->n_fallback || !s->fprev_ok || !s->row_intact || !s->aint || !s->vpred || !s->vp_ok || !s->dxp || !s->nbroken ||
       !s->m1 || !s->mixed || !s->full || !s->gf_state || !s->egf || !s->hself || !s->hsum || !s->dt_fam || !s->dt_fam_t ||
-      (s->eos && (!s->p_eos || !s->c_eos))) {
+      !s->jmax || !s->notok || (s->eos && (!s->p_eos || !s->c_eos))) {
     tlpd_free_arrays(s);
     s->wa = s->wb = NULL;
     s->Kinv = s->d6 = s->wp = s->area = s->p_eos = s->c_eos = NULL;
@@ -459,6 +476,8 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->n_fallback = NULL;
     s->mixed = s->full = s->gf_state = NULL;
     s->egf = NULL;
+    s->jmax = NULL;
+    s->notok = NULL;
     EJ_FAIL(EJ_ERR_MEM, "set '%s': tlpd out of memory for %lld bonds", s->name, (long long)s->nb);
   }
   return EJ_OK;
@@ -466,7 +485,7 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
 
 /* K_i^-1, status, coefficient and damage of row i over its intact bonds (000 Eqs 16-17,
  * section 5 for a particle without bonds; 002 section 1.3 for a singular K). */
-static void tlpd_refresh_row(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_idx i)
+static void tlpd_refresh_row_(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_idx i)
 {
   const ej_real *x0 = ej_set_field(set, "x0"), *vol0 = ej_set_field(set, "vol0");
   int32_t *status = ej_set_field_int(set, "pd_status");
@@ -551,6 +570,18 @@ static void tlpd_refresh_row(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_i
   }
 }
 
+/* refresh_row_ and the count of rows that are not correspondence points (n_notok) */
+static void tlpd_refresh_row(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_idx i)
+{
+  tlpd_refresh_row_(s, set, nbr, i);
+  const int32_t *status = ej_set_field_int(set, "pd_status");
+  const uint8_t bad = status[i] != TLPD_OK;
+  if (bad != s->notok[i]) {
+    s->notok[i] = bad;
+    atomic_fetch_add_explicit(&s->n_notok, bad ? 1 : -1, memory_order_relaxed);
+  }
+}
+
 static inline ej_real tlpd_traction_p(const tlpd_traction_cfg *t, ej_real time)
 {
   if (t->pressure == 0) return 0;
@@ -564,6 +595,9 @@ static void tlpd_init_row(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_idx 
   const ej_real *x0 = ej_set_field(set, "x0"), *vol0 = ej_set_field(set, "vol0");
   const ej_real dxi = tlpd_dx(s, vol0[i]), di = tlpd_delta(s, dxi);
   s->dxp[i] = dxi;
+  ej_idx jm = 0;
+  for (ej_off k = nbr->off[i]; k < nbr->off[i + 1]; ++k) jm = nbr->idx[k] > jm ? nbr->idx[k] : jm;
+  s->jmax[i] = jm;
   ej_real vball = 0; /* sum of beta V over the family, against the horizon ball's volume */
   for (ej_off k = nbr->off[i]; k < nbr->off[i + 1]; ++k) {
     const ej_idx j = nbr->idx[k];
@@ -654,15 +688,37 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
         const tlpd_v4 Xi = TLPD_LD3(x0 + 3 * i), xi = TLPD_LD3(x + 3 * i), vi = TLPD_LD3(v + 3 * i);
         tlpd_v4 n0 = {0}, n1 = {0}, n2 = {0}, v0 = {0}, v1 = {0}, v2 = {0}, syv = {0};
         const bool intact = s->row_intact[i];
-        for (ej_off k = off[i]; k < off[i + 1]; ++k) {
-          if (!intact && (flags[k] & TLPD_BROKEN)) continue;
-          const ej_real w = wa[k];
-          const ej_idx j = idx[k];
-          const tlpd_v4 X = w * (TLPD_LDJ(x0, j, nall) - Xi);
-          const tlpd_v4 Y = TLPD_LDJ(x, j, nall) - xi, V = TLPD_LDJ(v, j, nall) - vi;
-          syv += w * (Y * V);
-          n0 += Y[0] * X, n1 += Y[1] * X, n2 += Y[2] * X;
-          v0 += V[0] * X, v1 += V[1] * X, v2 += V[2] * X;
+        if (intact && s->jmax[i] + 1 < nall) {
+          /* the common row: no broken bond, every neighbour's 4-wide load inside the arrays, no
+           * per-bond test; by columns, c_b += Y wX_b, cv_b += V wX_b (one broadcast of wX_b serves
+           * N and Nv). Every element sums the same products in the same order as the general
+           * loop's rows n_a, v_a below: bitwise the same sums. */
+          tlpd_v4 c0 = {0}, c1 = {0}, c2 = {0}, cv0 = {0}, cv1 = {0}, cv2 = {0};
+          for (ej_off k = off[i]; k < off[i + 1]; ++k) {
+            const ej_real w = wa[k];
+            const size_t j3 = 3 * (size_t)idx[k];
+            const tlpd_v4 X = w * (TLPD_LD4(x0 + j3) - Xi);
+            const tlpd_v4 Y = TLPD_LD4(x + j3) - xi, V = TLPD_LD4(v + j3) - vi;
+            syv += w * (Y * V);
+            c0 += Y * X[0], c1 += Y * X[1], c2 += Y * X[2];
+            cv0 += V * X[0], cv1 += V * X[1], cv2 += V * X[2];
+          }
+          /* back to rows (n_a[b] = c_b[a]) */
+          n0 = (tlpd_v4){c0[0], c1[0], c2[0], 0}, n1 = (tlpd_v4){c0[1], c1[1], c2[1], 0};
+          n2 = (tlpd_v4){c0[2], c1[2], c2[2], 0};
+          v0 = (tlpd_v4){cv0[0], cv1[0], cv2[0], 0}, v1 = (tlpd_v4){cv0[1], cv1[1], cv2[1], 0};
+          v2 = (tlpd_v4){cv0[2], cv1[2], cv2[2], 0};
+        } else {
+          for (ej_off k = off[i]; k < off[i + 1]; ++k) {
+            if (!intact && (flags[k] & TLPD_BROKEN)) continue;
+            const ej_real w = wa[k];
+            const ej_idx j = idx[k];
+            const tlpd_v4 X = w * (TLPD_LDJ(x0, j, nall) - Xi);
+            const tlpd_v4 Y = TLPD_LDJ(x, j, nall) - xi, V = TLPD_LDJ(v, j, nall) - vi;
+            syv += w * (Y * V);
+            n0 += Y[0] * X, n1 += Y[1] * X, n2 += Y[2] * X;
+            v0 += V[0] * X, v1 += V[1] * X, v2 += V[2] * X;
+          }
         }
         SYV = syv[0] + syv[1] + syv[2];
         for (int b = 0; b < 3; ++b) {
@@ -880,6 +936,7 @@ static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej
   const bool fast = !diff && !silling && G;
   const ej_real *Kinv_f = ej_set_field(set, "K_inv");
   const bool gfc = s->cfg.ghost_force_correction && !s->wb_alias && !diff && Kinv_f;
+  const bool all_ok = s->wb_alias && atomic_load_explicit(&s->n_notok, memory_order_relaxed) == 0;
   for (ej_idx i = r.begin; i < r.end; ++i) {
     const int si = status[i];
     if (gfc && s->gf_state[i] == 0) tlpd_ghost_vector(s, set, nbr, i, Kinv_f);
@@ -898,24 +955,41 @@ static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej
                    Gi[2] * M1[0] + Gi[5] * M1[1] + Gi[8] * M1[2], 0};
       const tlpd_v4 xi = TLPD_LD3(x + 3 * i), Xi = TLPD_LD3(x0 + 3 * i);
       const bool intact = s->row_intact[i];
-      for (ej_off k = off[i]; k < off[i + 1]; ++k) {
-        if (!intact && (flags[k] & TLPD_BROKEN)) continue;
-        const ej_idx j = idx[k];
-        const ej_real A = wa[k], B = wb[k];
-        const int sj = status[j];
-        const tlpd_v4 Y = TLPD_LDJ(x, j, nall) - xi;
-        if (sj == TLPD_FALLBACK) {
-          const tlpd_v4 X = TLPD_LD3(x0 + 3 * j) - Xi;
-          const ej_real ly = sqrt(Y[0] * Y[0] + Y[1] * Y[1] + Y[2] * Y[2]), lx = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
-          const ej_real sf = (ly > 0 ? 0.5 * coef[j] * B * (ly - lx) / (lx * ly) : 0) + A * Ci;
-          f += sf * Y;
-          continue;
+      if (all_ok && intact && s->jmax[i] + 1 < nall) {
+        /* the common row: uniform spacing (B = A), no broken bond, every row a correspondence
+         * point (n_notok = 0, so coef_j is the hourglass coefficient and there is no spring
+         * fallback), every neighbour's 4-wide load inside the arrays: the operations of the
+         * general loop below in the same order, without its per-bond tests (bitwise the same) */
+        for (ej_off k = off[i]; k < off[i + 1]; ++k) {
+          const ej_real A = wa[k]; /* = wb[k] (aliased) */
+          const ej_idx j = idx[k];
+          const size_t j3 = 3 * (size_t)j;
+          const tlpd_v4 Y = TLPD_LD4(x + j3) - xi;
+          const tlpd_v4 X = A * (TLPD_LD4(x0 + j3) - Xi);
+          const ej_real *Gj = G + 9 * (size_t)j;
+          const ej_real cy = TLPD_MADD(A, coef[j], A * Ci);
+          f += TLPD_LD4(Gj) * X[0] + TLPD_LD4(Gj + 3) * X[1] + TLPD_LD4(Gj + 6) * X[2] + cy * Y;
         }
-        const tlpd_v4 X = B * (TLPD_LDJ(x0, j, nall) - Xi);
-        const ej_real *Gj = G + 9 * j;
-        const ej_real cy = A * Ci + B * (sj == TLPD_OK ? coef[j] : 0);
-        /* columns of G_j: slots 0-3 and 3-6 (lane 3 unused), 6-8 */
-        f += TLPD_LD4(Gj) * X[0] + TLPD_LD4(Gj + 3) * X[1] + TLPD_LD3(Gj + 6) * X[2] + cy * Y;
+      } else {
+        for (ej_off k = off[i]; k < off[i + 1]; ++k) {
+          if (!intact && (flags[k] & TLPD_BROKEN)) continue;
+          const ej_idx j = idx[k];
+          const ej_real A = wa[k], B = wb[k];
+          const int sj = status[j];
+          const tlpd_v4 Y = TLPD_LDJ(x, j, nall) - xi;
+          if (sj == TLPD_FALLBACK) {
+            const tlpd_v4 X = TLPD_LD3(x0 + 3 * j) - Xi;
+            const ej_real ly = sqrt(Y[0] * Y[0] + Y[1] * Y[1] + Y[2] * Y[2]), lx = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
+            const ej_real sf = (ly > 0 ? 0.5 * coef[j] * B * (ly - lx) / (lx * ly) : 0) + A * Ci;
+            f += sf * Y;
+            continue;
+          }
+          const tlpd_v4 X = B * (TLPD_LDJ(x0, j, nall) - Xi);
+          const ej_real *Gj = G + 9 * j;
+          const ej_real cy = A * Ci + B * (sj == TLPD_OK ? coef[j] : 0);
+          /* columns of G_j: slots 0-3 and 3-6 (lane 3 unused), 6-8 */
+          f += TLPD_LD4(Gj) * X[0] + TLPD_LD4(Gj + 3) * X[1] + TLPD_LD3(Gj + 6) * X[2] + cy * Y;
+        }
       }
       const ej_real f0 = f[0] + gc[0], f1 = f[1] + gc[1], f2 = f[2] + gc[2];
       const ej_real iv = vol0[i] / m[i];
