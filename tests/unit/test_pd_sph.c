@@ -94,6 +94,54 @@ START_TEST(test_decohesion)
 }
 END_TEST
 
+/* Decohesion acts on the solid's interface layer only (issue 8, third pass): a 1D rock next to
+ * water at 220 MPa (material rho0 1100, EOS rho0 1000, C1 2.2e9) whose h is 3 of its spacings
+ * (0.5 mm), one force evaluation. The rock's nearest particle is 0.75 mm from the water, the next
+ * 1.75 mm. decohesion_reach 1 (default, contact within one rock spacing, 1 mm): only the first
+ * layer fails. decohesion_reach 0 (the former rule: the pair's kernel support 2 hbar = 4.5 mm, cut
+ * by the neighbour list's 3 mm): the layers the water does not touch fail too. */
+static const char scene_contact[] =
+    "ejecta: 1\ndimension: 1\ntime: {end: 1.0, cfl: 0.3, max_steps: 1}\noutput: {file: out.h5}\n"
+    "materials:\n  rock: {model: elastic, rho0: 2000, E: 1e9, nu: 0.25}\n"
+    "  water: {rho0: 1100, eos: {model: polynomial, rho0: 1000, C1: 2.2e9}}\n"
+    "sets:\n"
+    "  rock: {method: tlpd, material: rock, shape: {box: {min: [0], max: [0.01]}}, spacing: 0.001}\n"
+    "  water: {method: sph, material: water, renormalize: false, h_factor: 3,\n"
+    "          shape: {box: {min: [-0.01], max: [0]}}, spacing: 0.0005}\n"
+    "interactions:\n  - {model: pd_sph, sets: [water, rock], decohesion_pressure: 50 MPa%s}\n";
+
+static int contact_failed(const char *extra, double *deepest)
+{
+  prun c;
+  ck_assert_int_eq(prun_try(&c, scene_contact, extra), EJ_OK);
+  vrun_run(&c.r);
+  ej_set *rock = c.r.sim->sets[0];
+  ck_assert_str_eq(ej_set_name(rock), "rock");
+  const int32_t *failed = ej_set_field_int(rock, "failed");
+  const ej_real *x0 = ej_set_field(rock, "x0");
+  int nf = 0;
+  *deepest = 0;
+  for (ej_idx i = 0; i < rock->n; ++i)
+    if (failed[i]) {
+      ++nf;
+      *deepest = fmax(*deepest, x0[3 * i]);
+    }
+  prun_free(&c);
+  return nf;
+}
+
+START_TEST(test_decohesion_contact)
+{
+  double d1, d0;
+  const int n1 = contact_failed("", &d1), n0 = contact_failed(", decohesion_reach: 0", &d0);
+  fprintf(stderr, "decohesion contact: reach 1 dx: %d failed (deepest x0 %.2f mm); kernel support: %d (%.2f mm)\n",
+          n1, d1 * 1e3, n0, d0 * 1e3);
+  ck_assert_int_eq(n1, 1);
+  ck_assert_double_lt(d1, 0.001);
+  ck_assert_int_ge(n0, 3);
+}
+END_TEST
+
 START_TEST(test_needs_one_solid)
 {
   prun c;
@@ -269,6 +317,7 @@ static Suite *pd_sph_suite(void)
   tcase_set_timeout(tc, 120);
   tcase_add_test(tc, test_pairwise_momentum);
   tcase_add_test(tc, test_decohesion);
+  tcase_add_test(tc, test_decohesion_contact);
   tcase_add_test(tc, test_needs_one_solid);
   tcase_add_test(tc, test_uniform_stress_forces);
   tcase_add_test(tc, test_uniform_stress_at_rest);

@@ -43,7 +43,9 @@
  * Decohesion (ejecta's own design; 000 claims a "pressure-driven decohesion criterion" but gives
  * no formula, see its digest): a solid particle whose fluid neighbours reach a pressure above
  * `decohesion_pressure`, or whose volumetric strain J - 1 exceeds `decohesion_strain`, is marked
- * failed (field `failed`); the PD method then breaks all its bonds (point failure). */
+ * failed (field `failed`); the PD method then breaks all its bonds (point failure). "Neighbours"
+ * means contact: fluid particles closer than `decohesion_reach` initial solid spacings (a fixed
+ * distance, one layer; see pd_sph_decohesion). */
 #include <math.h>
 #include <string.h>
 
@@ -61,7 +63,7 @@ typedef struct pd_sph_config {
   ej_real alpha, beta, eta, h_factor;
   ej_real horizon;
   int influence;
-  ej_real decohesion_pressure, decohesion_strain;
+  ej_real decohesion_pressure, decohesion_strain, decohesion_reach;
 } pd_sph_config;
 
 static const char *const pd_sph_forms[] = {"pairwise", "paper", "consistent", NULL};
@@ -102,6 +104,10 @@ static const ej_param pd_sph_params[] = {
     EJ_PARAM_REAL(pd_sph_config, decohesion_strain, "1", 0, 0, 0, EJ_PF_HAS_MIN,
                   "ejecta decohesion: a solid particle next to the fluid whose J - 1 exceeds this loses all its "
                   "bonds; 0 = off."),
+    EJ_PARAM_REAL(pd_sph_config, decohesion_reach, "1", 1.0, 0, 3, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "ejecta decohesion: contact distance, in the solid particle's initial spacings: only fluid "
+                  "particles closer than this act on it (its interface layer); 0: the pair's kernel support 2 hbar, "
+                  "which grows with the fluid's h (the rule before issue 8's third pass, for comparison)."),
     {0}};
 
 typedef struct pd_sph_state {
@@ -344,7 +350,12 @@ static void pd_sph_paper_fluid(const pd_sph_state *s, const cpl_side *G, const c
   }
 }
 
-/* ejecta's decohesion rule on the solid side (see the file comment). */
+/* ejecta's decohesion rule on the solid side (see the file comment). Contact (issue 8, third pass):
+ * a fluid particle acts on solid particle i only when it is closer than decohesion_reach times i's
+ * initial spacing, a fixed distance: one soil layer. Before, the reach was the pair's kernel
+ * support 2 hbar, and hbar follows the fluid's h, which grows as the gas expands (sph h_max 4:
+ * 2 hbar up to ~8 solid spacings), so the rule failed whole caps through several soil layers
+ * that the gas never touched (README "Decohesion"). decohesion_reach 0 keeps that rule. */
 static void pd_sph_decohesion(const pd_sph_state *s, const cpl_side *S, const cpl_side *G, ej_set *solid,
                               const ej_nbr *sg, ej_range r)
 {
@@ -353,17 +364,27 @@ static void pd_sph_decohesion(const pd_sph_state *s, const cpl_side *S, const cp
   if (!failed) return;
   for (ej_idx i = r.begin; i < r.end; ++i) {
     if (failed[i] || sg->off[i + 1] == sg->off[i]) continue;
-    bool fail = false;
-    if (s->cfg.decohesion_strain > 0 && F && ej_m3_det(F + 9 * i) - 1 > s->cfg.decohesion_strain) fail = true;
-    if (s->cfg.decohesion_pressure > 0)
-      for (ej_off k = sg->off[i]; k < sg->off[i + 1] && !fail; ++k) {
-        const ej_idx j = sg->idx[k];
-        const ej_real dx[3] = {G->x[3 * j] - S->x[3 * i], G->x[3 * j + 1] - S->x[3 * i + 1], G->x[3 * j + 2] - S->x[3 * i + 2]};
+    const ej_real rc = s->cfg.decohesion_reach * cpl_dx(S, i);
+    bool contact = false, hot = false;
+    for (ej_off k = sg->off[i]; k < sg->off[i + 1] && !(contact && hot); ++k) {
+      const ej_idx j = sg->idx[k];
+      const ej_real dx[3] = {G->x[3 * j] - S->x[3 * i], G->x[3 * j + 1] - S->x[3 * i + 1], G->x[3 * j + 2] - S->x[3 * i + 2]};
+      const ej_real r2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
+      if (rc > 0) {
+        if (r2 >= rc * rc) continue;
+      } else {
         const ej_real hbar = cpl_hbar(S, i, G, j);
-        if (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2] >= 4 * hbar * hbar) continue;
-        const ej_real pj = G->p ? G->p[j] : -ej_s6_trace(G->stress + 6 * j) / 3;
-        fail = pj > s->cfg.decohesion_pressure;
+        if (r2 >= 4 * hbar * hbar) continue;
       }
+      contact = true;
+      if (s->cfg.decohesion_pressure > 0) {
+        const ej_real pj = G->p ? G->p[j] : -ej_s6_trace(G->stress + 6 * j) / 3;
+        hot = hot || pj > s->cfg.decohesion_pressure;
+      }
+    }
+    if (!contact) continue;
+    bool fail = hot;
+    if (s->cfg.decohesion_strain > 0 && F && ej_m3_det(F + 9 * i) - 1 > s->cfg.decohesion_strain) fail = true;
     if (fail) failed[i] = 1;
   }
 }
