@@ -971,6 +971,25 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
   }
 }
 
+#if defined(__AVX2__)
+#include <immintrin.h>
+/* dst[0..3] = a[stride * j4[0..3]]: scalar loads into one vector and one store (not vgatherdpd:
+ * slower on the AMD Zen 3 here, README "Performance"). Data movement only. */
+static inline SPH_ALWAYS_INLINE void sph_pairs_g4(const ej_real *restrict a, const size_t stride,
+                                                  const ej_idx *restrict j4, ej_real *restrict dst)
+{
+  _mm256_storeu_pd(dst, _mm256_set_pd(a[stride * (size_t)j4[3]], a[stride * (size_t)j4[2]],
+                                      a[stride * (size_t)j4[1]], a[stride * (size_t)j4[0]]));
+}
+#endif
+
+static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_real *restrict x,
+                                                     const ej_real *restrict h, const ej_idx *restrict idx,
+                                                     ej_off *k, const ej_off kend, const ej_real xi0,
+                                                     const ej_real xi1, const ej_real xi2, const ej_real hi,
+                                                     ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
+                                                     ej_real *restrict bh, ej_idx *restrict jb);
+
 /* The pair loop of the kernel gradient (no correction) and of the shape tensor, in blocks of up
  * to SPH_BLK entries of a row: (1) gather the neighbours' data into contiguous buffers (a scalar
  * loop), (2) evaluate every pair term and sum it in one vectorised loop (omp simd reduction):
@@ -1047,7 +1066,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
     ej_off kc = off[i];
     const ej_idx *restrict row = idx + off[i];
     for (;;) {
-      int nk = 0;
+      int nk = 0, q0 = 0, qs = 0; /* x and h gathered below q0, the rest below qs */
       if (ki) { /* the set bits of the masks in list order, whole words per block (a word has <= 64) */
         for (; wrd < SPH_KEEP_WORDS; ++wrd) {
           uint64_t bits = ki[wrd];
@@ -1055,21 +1074,55 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
           const ej_idx *restrict rw = row + 64 * wrd;
           for (; bits; bits &= bits - 1) jb[nk++] = rw[sph_ctz64(bits)];
         }
+        if (nk == 0) break;
       } else {
-        nk = (int)(off[i + 1] - kc < SPH_BLK ? off[i + 1] - kc : SPH_BLK);
-        for (int q = 0; q < nk; ++q) jb[q] = idx[kc + q];
-        kc += nk;
+        /* kernel gradient (and shape rows too long for the masks): only the entries inside 2 hbar
+         * (~62 of ~80 on the throughput scene) reach the buffers: the same test r2 < 4 hbar^2, with the
+         * same operations, as `keep` below (README "Throughput") */
+        nk = sph_pairs_gather(dim, x, h, idx, &kc, off[i + 1], xi0, xi1, xi2, hi, bx, by, bz, bh, jb);
+        if (nk == 0) break;
+        q0 = nk;
       }
-      if (nk == 0) break;
-      for (int q = 0; q < nk; ++q) {
+#if defined(__AVX2__)
+      /* 3D: the rest four entries at a time (scalar loads into one vector, one store; data movement only) */
+      if (dim == 3) {
+        for (; q0 + 4 <= nk; q0 += 4) {
+          const ej_idx *restrict j4 = jb + q0;
+          sph_pairs_g4(x, 3, j4, bx + q0), sph_pairs_g4(x + 1, 3, j4, by + q0), sph_pairs_g4(x + 2, 3, j4, bz + q0);
+          sph_pairs_g4(h, 1, j4, bh + q0);
+        }
+        int q = 0;
+        for (; q + 4 <= nk; q += 4) {
+          const ej_idx *restrict j4 = jb + q;
+          sph_pairs_g4(v, 3, j4, bvx + q), sph_pairs_g4(v + 1, 3, j4, bvy + q), sph_pairs_g4(v + 2, 3, j4, bvz + q);
+          sph_pairs_g4(rho, 1, j4, brho + q), sph_pairs_g4(c, 1, j4, bc + q);
+          sph_pairs_g4(p_rho2, 1, j4, bpr + q), sph_pairs_g4(m, 1, j4, bm + q);
+          if (sym)
+            for (int t = 0; t < 6; ++t) sph_pairs_g4(M + t, 6, j4, bM[t] + q);
+        }
+        for (; q < nk; ++q) {
+          const ej_idx j = jb[q];
+          if (q >= q0) bx[q] = x[3 * j], by[q] = x[3 * j + 1], bz[q] = x[3 * j + 2], bh[q] = h[j];
+          bvx[q] = v[3 * j], bvy[q] = v[3 * j + 1], bvz[q] = v[3 * j + 2];
+          brho[q] = rho[j], bc[q] = c[j], bpr[q] = p_rho2[j], bm[q] = m[j];
+          if (sym)
+            for (int t = 0; t < 6; ++t) bM[t][q] = M[6 * j + t];
+        }
+        qs = nk;
+      }
+#endif
+      for (int q = qs; q < nk; ++q) {
         const ej_idx j = jb[q];
-        bx[q] = x[3 * j];
-        by[q] = dim > 1 ? x[3 * j + 1] : 0.0;
-        bz[q] = dim > 2 ? x[3 * j + 2] : 0.0;
+        if (q >= q0) {
+          bx[q] = x[3 * j];
+          by[q] = dim > 1 ? x[3 * j + 1] : 0.0;
+          bz[q] = dim > 2 ? x[3 * j + 2] : 0.0;
+          bh[q] = h[j];
+        }
         bvx[q] = v[3 * j];
         bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0;
         bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
-        bh[q] = h[j], brho[q] = rho[j], bc[q] = c[j], bpr[q] = p_rho2[j], bm[q] = m[j];
+        brho[q] = rho[j], bc[q] = c[j], bpr[q] = p_rho2[j], bm[q] = m[j];
         if (sym) /* M_inv = 0 marks a fallback row (a regular M^-1 has M^-1_xx > 0) */
           for (int t = 0; t < 6; ++t) bM[t][q] = M[6 * j + t];
 #if defined(__GNUC__)
@@ -1086,7 +1139,10 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
         const ej_real rz = dim > 2 ? xi2 - bz[q] : 0.0;
         const ej_real r2 = rx * rx + ry * ry + rz * rz;
         const ej_real hbar = 0.5 * (hi + bh[q]);
-        const bool keep = r2 < 4.0 * hbar * hbar;
+        /* every gathered entry passed r2 < 4 hbar^2 with these operations (sph_pairs_gather, or the
+         * shape pass's masks: the same r2 and hbar), so the skin selects below fold away */
+        const bool keep = true;
+        (void)r2;
         /* A coincident pair has f'(0) = 0 for both kernels: clamping r keeps 0 * finite. */
         const ej_real r_raw = sqrt(r2), r_min = 1e-12 * hbar;
         const ej_real r = r_raw > r_min ? r_raw : r_min;
@@ -1359,6 +1415,62 @@ static const int32_t sph_solid_perm32[16][8] __attribute__((aligned(32))) = {
     {3, 0, 0, 0, 0, 0, 0, 0}, {0, 3, 0, 0, 0, 0, 0, 0}, {1, 3, 0, 0, 0, 0, 0, 0}, {0, 1, 3, 0, 0, 0, 0, 0},
     {2, 3, 0, 0, 0, 0, 0, 0}, {0, 2, 3, 0, 0, 0, 0, 0}, {1, 2, 3, 0, 0, 0, 0, 0}, {0, 1, 2, 3, 0, 0, 0, 0}};
 #endif
+
+/* Compaction gather of the gas pair loop (sph_pairs_blocked), the algorithm of sph_solid_gather
+ * with the gas block SPH_BLK: from list entry *k on, up to SPH_BLK entries with r2 < 4 hbar^2 go
+ * to bx, by, bz, bh, jb (a skin entry's slot is overwritten by the next entry). The test is the
+ * one of the pair loop's `keep`, same operations in the same order (no contraction under
+ * -std=c11), so every gathered entry has keep = true there and none it keeps is dropped. Returns
+ * the count and advances *k past the entries read. */
+static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_real *restrict x,
+                                                     const ej_real *restrict h, const ej_idx *restrict idx,
+                                                     ej_off *k, const ej_off kend, const ej_real xi0,
+                                                     const ej_real xi1, const ej_real xi2, const ej_real hi,
+                                                     ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
+                                                     ej_real *restrict bh, ej_idx *restrict jb)
+{
+  int nk = 0;
+  ej_off kk = *k;
+#if defined(__AVX2__)
+  if (dim == 3) {
+    const __m256d vx0 = _mm256_set1_pd(xi0), vx1 = _mm256_set1_pd(xi1), vx2 = _mm256_set1_pd(xi2);
+    const __m256d vhi = _mm256_set1_pd(hi), half = _mm256_set1_pd(0.5), four = _mm256_set1_pd(4.0);
+    for (; kk + 4 <= kend && nk <= SPH_BLK - 4; kk += 4) {
+      const __m128i j4 = _mm_loadu_si128((const __m128i *)(const void *)(idx + kk));
+      const ej_idx ja = idx[kk], jbb = idx[kk + 1], jc = idx[kk + 2], jd = idx[kk + 3];
+      const ej_real *xa = x + 3 * (size_t)ja, *xb = x + 3 * (size_t)jbb, *xc = x + 3 * (size_t)jc,
+                    *xd = x + 3 * (size_t)jd;
+      const __m256d X = _mm256_set_pd(xd[0], xc[0], xb[0], xa[0]), Y = _mm256_set_pd(xd[1], xc[1], xb[1], xa[1]);
+      const __m256d Z = _mm256_set_pd(xd[2], xc[2], xb[2], xa[2]), H = _mm256_set_pd(h[jd], h[jc], h[jbb], h[ja]);
+      const __m256d hb = _mm256_mul_pd(half, _mm256_add_pd(vhi, H));
+      const __m256d d0 = _mm256_sub_pd(vx0, X), d1 = _mm256_sub_pd(vx1, Y), d2 = _mm256_sub_pd(vx2, Z);
+      const __m256d r2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(d0, d0), _mm256_mul_pd(d1, d1)),
+                                       _mm256_mul_pd(d2, d2));
+      const int msk = _mm256_movemask_pd(_mm256_cmp_pd(r2, _mm256_mul_pd(_mm256_mul_pd(four, hb), hb), _CMP_LT_OQ));
+      const __m256i p = _mm256_load_si256((const __m256i *)(const void *)sph_solid_perm64[msk]);
+      _mm256_storeu_pd(bx + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(X), p)));
+      _mm256_storeu_pd(by + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(Y), p)));
+      _mm256_storeu_pd(bz + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(Z), p)));
+      _mm256_storeu_pd(bh + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(H), p)));
+      const __m256i pj = _mm256_load_si256((const __m256i *)(const void *)sph_solid_perm32[msk]);
+      _mm_storeu_si128((__m128i *)(void *)(jb + nk),
+                       _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castsi128_si256(j4), pj)));
+      nk += __builtin_popcount((unsigned)msk);
+    }
+  }
+#endif
+  for (; kk < kend && nk < SPH_BLK; ++kk) {
+    const ej_idx j = idx[kk];
+    const ej_real xj0 = x[3 * j], xj1 = dim > 1 ? x[3 * j + 1] : 0.0, xj2 = dim > 2 ? x[3 * j + 2] : 0.0;
+    const ej_real hj = h[j], hb = 0.5 * (hi + hj);
+    const ej_real d0 = xi0 - xj0, d1 = dim > 1 ? xi1 - xj1 : 0.0, d2 = dim > 2 ? xi2 - xj2 : 0.0;
+    const ej_real r2 = d0 * d0 + d1 * d1 + d2 * d2;
+    bx[nk] = xj0, by[nk] = xj1, bz[nk] = xj2, bh[nk] = hj, jb[nk] = j;
+    nk += r2 < 4.0 * hb * hb;
+  }
+  *k = kk;
+  return nk;
+}
 
 #if defined(__AVX2__)
 /* Gather of four rows (6 values each: Voigt tensors) of a into the component buffers
