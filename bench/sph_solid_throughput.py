@@ -28,6 +28,9 @@ HEAD 2.44e5 / 2.45e5 / 2.86e5, after 2.92e5 / 2.91e5 / 3.55e5 particle-steps/s (
 this script at HEAD: 2.93e5 (CPU), speed-up 1.67; after: 3.14e5 and 2.98e5 (CPU, two runs),
 speed-up 0.65 and 1.36 (2-thread wall times disturbed by other jobs: not a measurement of the
 code). Target 5e5 per core: FAIL; speed-up 1.8: FAIL on this shared machine.
+Then (README "Solid throughput note 2"): four-at-a-time gathers of the per-neighbour scalars
+v, rho, c, m, CPU time 1 thread, HEAD and new alternated 3 times, load 5-7: HEAD 2.83e5 / 2.76e5 /
+2.79e5, after 3.11e5 / 2.99e5 / 3.05e5 (x1.08-1.10). Target 5e5 per core: FAIL.
 """
 import argparse
 import os

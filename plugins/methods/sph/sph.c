@@ -1493,6 +1493,15 @@ static inline SPH_ALWAYS_INLINE void sph_solid_t6(const ej_real *restrict a, con
   _mm256_storeu_pd(dst + 4 * SPH_SOLID_BLK, _mm256_unpacklo_pd(u02, u13));
   _mm256_storeu_pd(dst + 5 * SPH_SOLID_BLK, _mm256_unpackhi_pd(u02, u13));
 }
+
+/* Gather of a[stride * j + comp] for the four indices j4[0..3] into dst[0..3]: scalar loads into
+ * one vector and one store (instead of four scalar stores). Data movement only. */
+static inline SPH_ALWAYS_INLINE void sph_solid_g4(const ej_real *restrict a, const size_t stride,
+                                                  const ej_idx *restrict j4, ej_real *restrict dst)
+{
+  _mm256_storeu_pd(dst, _mm256_set_pd(a[stride * (size_t)j4[3]], a[stride * (size_t)j4[2]],
+                                      a[stride * (size_t)j4[1]], a[stride * (size_t)j4[0]]));
+}
 #endif
 
 /* Compaction gather shared by the two solid pair loops: from list entry *k on, up to
@@ -1584,7 +1593,16 @@ static inline SPH_ALWAYS_INLINE void sph_solid_velgrad_row(const int kernel, con
   for (ej_off k = off[i]; k < kend;) {
     /* compaction: only the entries inside 2 hbar (and not coincident) enter the buffers */
     const int nk = sph_solid_gather(dim, true, x, h, idx, &k, kend, xi0, xi1, xi2, hi, bx, by, bz, bh, jb);
-    for (int q = 0; q < nk; ++q) {
+    int q4 = 0; /* entries [0, q4) gathered four at a time (3D, AVX2) */
+#if defined(__AVX2__)
+    if (dim == 3)
+      for (; q4 + 4 <= nk; q4 += 4) {
+        sph_solid_g4(v, 3, jb + q4, bvx + q4), sph_solid_g4(v + 1, 3, jb + q4, bvy + q4);
+        sph_solid_g4(v + 2, 3, jb + q4, bvz + q4);
+        sph_solid_g4(m, 1, jb + q4, bm + q4), sph_solid_g4(rho, 1, jb + q4, brho + q4);
+      }
+#endif
+    for (int q = q4; q < nk; ++q) {
       const ej_idx j = jb[q];
       bvx[q] = v[3 * j], bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0, bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
       bm[q] = m[j], brho[q] = rho[j];
@@ -1813,7 +1831,16 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
         if (corr) sph_solid_t6(L, jb + q6, b0 + BL0 * SPH_SOLID_BLK);
       }
 #endif
-      for (int q = 0; q < nk; ++q) {
+      int q4 = 0; /* v, rho, c, m of entries [0, q4) gathered four at a time (3D, AVX2) */
+#if defined(__AVX2__)
+      if (dim == 3)
+        for (; q4 + 4 <= nk; q4 += 4) {
+          sph_solid_g4(v, 3, jb + q4, bvx + q4), sph_solid_g4(v + 1, 3, jb + q4, bvy + q4);
+          sph_solid_g4(v + 2, 3, jb + q4, bvz + q4), sph_solid_g4(rho, 1, jb + q4, brho + q4);
+          sph_solid_g4(c, 1, jb + q4, bc + q4), sph_solid_g4(m, 1, jb + q4, bm + q4);
+        }
+#endif
+      for (int q = q4; q < nk; ++q) {
         const ej_idx j = jb[q];
         bvx[q] = v[3 * j], bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0, bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
         brho[q] = rho[j], bc[q] = c[j], bm[q] = m[j];
