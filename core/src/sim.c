@@ -486,6 +486,14 @@ static ej_err ej_sets_create(ej_sim *sim)
   return EJ_OK;
 }
 
+/* Every method's setup (serial), on the sets' initial state. */
+static ej_err ej_sets_setup(ej_sim *sim)
+{
+  for (int i = 0; i < sim->n_sets; ++i)
+    if (sim->sets[i]->mops->setup) EJ_TRY(sim->sets[i]->mops->setup(sim->sets[i]->mstate, sim->sets[i]));
+  return EJ_OK;
+}
+
 static ej_err ej_check_output_fields(ej_sim *sim)
 {
   const ej_scene *sc = sim->scene;
@@ -1423,14 +1431,17 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
     return EJ_OK;
   }
   if (opts && opts->restart) {
-    /* Read before opening the output: the restart file may be this run's own .partial. */
+    /* The methods' setup runs on the scene's initial state first, as in a fresh run, so that a
+     * method's own arrays (rkpm's MSNNI face data, sized and keyed by particle id) exist; the
+     * checkpoint then overwrites every field setup wrote. Read before opening the output: the
+     * restart file may be this run's own .partial. */
+    EJ_TRY_GOTO(rc, ej_sets_setup(sim), out_destroy);
     EJ_TRY_GOTO(rc, ej_checkpoint_read(opts->restart, sim), out_destroy);
     EJ_TRY_GOTO(rc, ej_output_open(&sim->out, sim, sim->out_path), out_destroy);
     EJ_TRY_GOTO(rc, ej_lists_from_build(sim), out_destroy);
   } else {
     EJ_TRY_GOTO(rc, ej_output_open(&sim->out, sim, sim->out_path), out_destroy);
-    for (int i = 0; i < sim->n_sets; ++i)
-      if (sim->sets[i]->mops->setup) EJ_TRY_GOTO(rc, sim->sets[i]->mops->setup(sim->sets[i]->mstate, sim->sets[i]), out_destroy);
+    EJ_TRY_GOTO(rc, ej_sets_setup(sim), out_destroy);
     EJ_TRY_GOTO(rc, ej_rebuild(sim), out_destroy);
     EJ_TRY_GOTO(rc, ej_compute_all(sim, false), out_destroy);
     rc = ej_diagnostics(sim, false);
