@@ -673,6 +673,57 @@ static ej_err sph_corr_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
   return EJ_OK;
 }
 
+#if defined(__AVX2__)
+#include <immintrin.h>
+/* dst[0..3] = a[stride * j4[0..3]]: scalar loads into one vector and one store (not vgatherdpd:
+ * slower on the AMD Zen 3 here, README "Performance"). Data movement only. */
+static inline SPH_ALWAYS_INLINE void sph_pairs_g4(const ej_real *restrict a, const size_t stride,
+                                                  const ej_idx *restrict j4, ej_real *restrict dst)
+{
+  _mm256_storeu_pd(dst, _mm256_set_pd(a[stride * (size_t)j4[3]], a[stride * (size_t)j4[2]],
+                                      a[stride * (size_t)j4[1]], a[stride * (size_t)j4[0]]));
+}
+/* The first two components of four 3-vectors a[3 j4[0..3]]: two 128-bit loads per pair of
+ * entries, interleaved (x in *c0, y in *c1); the third component stays in-bounds (no 256-bit
+ * load past the array's end). Data movement only. */
+static inline SPH_ALWAYS_INLINE void sph_pairs_xy4(const ej_real *restrict a, const ej_idx *restrict j4,
+                                                   __m256d *c0, __m256d *c1)
+{
+  const __m256d u02 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(a + 3 * (size_t)j4[0])),
+                                           _mm_loadu_pd(a + 3 * (size_t)j4[2]), 1);
+  const __m256d u13 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(a + 3 * (size_t)j4[1])),
+                                           _mm_loadu_pd(a + 3 * (size_t)j4[3]), 1);
+  *c0 = _mm256_unpacklo_pd(u02, u13), *c1 = _mm256_unpackhi_pd(u02, u13);
+}
+/* M_inv (6 per particle) of four entries, transposed into dst[t ds + 0..3] (t = 0..5): a 256-bit
+ * and a 128-bit load per entry, a 4 x 4 and a 2 x 4 transpose. Data movement only. */
+static inline SPH_ALWAYS_INLINE void sph_pairs_m6(const ej_real *restrict M, const ej_idx *restrict j4,
+                                                  ej_real *restrict dst, const size_t ds)
+{
+  const ej_real *m0 = M + 6 * (size_t)j4[0], *m1 = M + 6 * (size_t)j4[1], *m2 = M + 6 * (size_t)j4[2],
+                *m3 = M + 6 * (size_t)j4[3];
+  const __m256d A0 = _mm256_loadu_pd(m0), A1 = _mm256_loadu_pd(m1), A2 = _mm256_loadu_pd(m2), A3 = _mm256_loadu_pd(m3);
+  const __m256d t0 = _mm256_unpacklo_pd(A0, A1), t1 = _mm256_unpackhi_pd(A0, A1);
+  const __m256d t2 = _mm256_unpacklo_pd(A2, A3), t3 = _mm256_unpackhi_pd(A2, A3);
+  _mm256_storeu_pd(dst, _mm256_permute2f128_pd(t0, t2, 0x20));
+  _mm256_storeu_pd(dst + ds, _mm256_permute2f128_pd(t1, t3, 0x20));
+  _mm256_storeu_pd(dst + 2 * ds, _mm256_permute2f128_pd(t0, t2, 0x31));
+  _mm256_storeu_pd(dst + 3 * ds, _mm256_permute2f128_pd(t1, t3, 0x31));
+  const __m256d b02 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(m0 + 4)), _mm_loadu_pd(m2 + 4), 1);
+  const __m256d b13 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(m1 + 4)), _mm_loadu_pd(m3 + 4), 1);
+  _mm256_storeu_pd(dst + 4 * ds, _mm256_unpacklo_pd(b02, b13));
+  _mm256_storeu_pd(dst + 5 * ds, _mm256_unpackhi_pd(b02, b13));
+}
+#endif
+
+static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_real *restrict x,
+                                                     const ej_real *restrict h, const ej_idx *restrict idx,
+                                                     ej_off *k, const ej_off kend, const ej_real xi0,
+                                                     const ej_real xi1, const ej_real xi2, const ej_real hi,
+                                                     ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
+                                                     ej_real *restrict bh, ej_idx *restrict jb,
+                                                     uint64_t *restrict km, const ej_off kbase);
+
 /* Current shape tensor of the consistent SPH, digest 000 Eqs 29-31 (Fan & Li): the discrete
  * M_i = sum_j (m_j/rho_j) w(|x_ij|) x_ij (x) x_ij (the digest's [GAP] note: only the continuous
  * Eq 30 is printed; this is the quadrature consistent with Eq 31), x_ij = x_j - x_i, w the kernel
@@ -692,9 +743,12 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
                                                      int32_t *restrict fb, uint64_t *restrict keep, ej_range rg)
 {
   const ej_real sigma = sph_kernel_sigma(kernel, dim);
-  /* Blocked like sph_pairs_blocked: gather, then a vectorised sum (a fixed order for a given
-   * build, whatever the thread count); pairs beyond 2 hbar get weight 0. */
+  /* Blocked like sph_pairs_blocked: the compaction gather (sph_pairs_gather, the pair loop's test
+   * r2 < 4 hbar^2 with the same operations) passes only the entries inside 2 hbar and sets their
+   * bits in the row's masks; then a vectorised sum over them (omp simd reduction: a fixed order for
+   * a given build, whatever the thread count). */
   ej_real bx[SPH_BLK], by[SPH_BLK], bz[SPH_BLK], bh[SPH_BLK], bV[SPH_BLK];
+  ej_idx jb[SPH_BLK];
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
     uint64_t *restrict ki = keep && off[i + 1] - off[i] <= 64 * SPH_KEEP_WORDS ? keep + SPH_KEEP_WORDS * i : NULL;
     if (ki) /* the words past the row's last entry stay 0 */
@@ -702,52 +756,38 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
     ej_real b0 = 0, b1 = 0, b2 = 0, b3 = 0, b4 = 0, b5 = 0; /* xx yy zz xy yz zx */
     const ej_real inv_hi = 1.0 / h[i], hi = h[i];
     const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
-    for (ej_off k0 = off[i]; k0 < off[i + 1]; k0 += SPH_BLK) {
-      const int nk = (int)(off[i + 1] - k0 < SPH_BLK ? off[i + 1] - k0 : SPH_BLK);
-      for (int q = 0; q < nk; ++q) {
-        const ej_idx j = idx[k0 + q];
-        bx[q] = x[3 * j];
-        by[q] = dim > 1 ? x[3 * j + 1] : 0.0;
-        bz[q] = dim > 2 ? x[3 * j + 2] : 0.0;
-        bh[q] = h[j];
-        /* vol: m/rho from pass 0 (the volume-form continuity weight), the same number without a division */
+    ej_off kc = off[i];
+    for (;;) {
+      const int nk = sph_pairs_gather(dim, x, h, idx, &kc, off[i + 1], xi0, xi1, xi2, hi, bx, by, bz, bh, jb, ki, off[i]);
+      if (nk == 0) break;
+      /* vol: m/rho from pass 0 (the volume-form continuity weight), the same number without a division */
+      int q = 0;
+#if defined(__AVX2__)
+      if (vol)
+        for (; q + 4 <= nk; q += 4) sph_pairs_g4(vol, 1, jb + q, bV + q);
+#endif
+      for (; q < nk; ++q) {
+        const ej_idx j = jb[q];
         bV[q] = vol ? vol[j] : m[j] / rho[j];
-#if defined(__GNUC__)
-        __asm__ volatile("");
-#endif
       }
-      /* the entry mask of the block, built in the same loop: a block starts at a multiple of
-       * SPH_BLK = 2 x 64 entries, so it fills two whole words (lo: entries 0-63, hi: 64-127) */
-      _Static_assert(SPH_BLK == 128, "sph: a block must fill two mask words");
-      uint64_t wlo = 0, whi = 0;
 #if defined(_OPENMP)
-#pragma omp simd reduction(+ : b0, b1, b2, b3, b4, b5) reduction(| : wlo, whi)
+#pragma omp simd reduction(+ : b0, b1, b2, b3, b4, b5)
 #endif
-      for (int q = 0; q < nk; ++q) {
-        const ej_real rx = bx[q] - xi0;
-        const ej_real ry = dim > 1 ? by[q] - xi1 : 0.0;
-        const ej_real rz = dim > 2 ? bz[q] - xi2 : 0.0;
+      for (int p = 0; p < nk; ++p) {
+        /* x_i - x_j: the products below are those of x_j - x_i (both factors change sign) */
+        const ej_real rx = xi0 - bx[p];
+        const ej_real ry = dim > 1 ? xi1 - by[p] : 0.0;
+        const ej_real rz = dim > 2 ? xi2 - bz[p] : 0.0;
         const ej_real r2 = rx * rx + ry * ry + rz * rz;
-        const ej_real hbar = 0.5 * (hi + bh[q]);
+        const ej_real hbar = 0.5 * (hi + bh[p]);
         const ej_real inv_h = 1.0 / hbar;
-        const ej_real w0 = bV[q] * sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, sqrt(r2) * inv_h);
-        const bool in = r2 < 4.0 * hbar * hbar;
-        const ej_real w = in ? w0 : 0.0;
-        /* the same test r2 < 4 hbar^2 as the pair pass (r2 of x_j - x_i is that of x_i - x_j) */
-        const uint64_t bit = (uint64_t)in << (q & 63);
-        wlo |= q < 64 ? bit : 0;
-        whi |= q < 64 ? 0 : bit;
+        const ej_real w = bV[p] * sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, sqrt(r2) * inv_h);
         b0 += w * rx * rx;
         b1 += w * ry * ry;
         b2 += w * rz * rz;
         b3 += w * rx * ry;
         b4 += w * ry * rz;
         b5 += w * rz * rx;
-      }
-      if (ki) {
-        const ej_off w = (k0 - off[i]) >> 6;
-        ki[w] = wlo;
-        if (nk > 64) ki[w + 1] = whi;
       }
     }
     ej_real b[6] = {b0, dim > 1 ? b1 : 0.0, dim > 2 ? b2 : 0.0, dim > 1 ? b3 : 0.0, dim > 2 ? b4 : 0.0,
@@ -971,24 +1011,6 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
   }
 }
 
-#if defined(__AVX2__)
-#include <immintrin.h>
-/* dst[0..3] = a[stride * j4[0..3]]: scalar loads into one vector and one store (not vgatherdpd:
- * slower on the AMD Zen 3 here, README "Performance"). Data movement only. */
-static inline SPH_ALWAYS_INLINE void sph_pairs_g4(const ej_real *restrict a, const size_t stride,
-                                                  const ej_idx *restrict j4, ej_real *restrict dst)
-{
-  _mm256_storeu_pd(dst, _mm256_set_pd(a[stride * (size_t)j4[3]], a[stride * (size_t)j4[2]],
-                                      a[stride * (size_t)j4[1]], a[stride * (size_t)j4[0]]));
-}
-#endif
-
-static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_real *restrict x,
-                                                     const ej_real *restrict h, const ej_idx *restrict idx,
-                                                     ej_off *k, const ej_off kend, const ej_real xi0,
-                                                     const ej_real xi1, const ej_real xi2, const ej_real hi,
-                                                     ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
-                                                     ej_real *restrict bh, ej_idx *restrict jb);
 
 /* The pair loop of the kernel gradient (no correction) and of the shape tensor, in blocks of up
  * to SPH_BLK entries of a row: (1) gather the neighbours' data into contiguous buffers (a scalar
@@ -1079,7 +1101,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
         /* kernel gradient (and shape rows too long for the masks): only the entries inside 2 hbar
          * (~62 of ~80 on the throughput scene) reach the buffers: the same test r2 < 4 hbar^2, with the
          * same operations, as `keep` below (README "Throughput") */
-        nk = sph_pairs_gather(dim, x, h, idx, &kc, off[i + 1], xi0, xi1, xi2, hi, bx, by, bz, bh, jb);
+        nk = sph_pairs_gather(dim, x, h, idx, &kc, off[i + 1], xi0, xi1, xi2, hi, bx, by, bz, bh, jb, NULL, 0);
         if (nk == 0) break;
         q0 = nk;
       }
@@ -1088,17 +1110,21 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
       if (dim == 3) {
         for (; q0 + 4 <= nk; q0 += 4) {
           const ej_idx *restrict j4 = jb + q0;
-          sph_pairs_g4(x, 3, j4, bx + q0), sph_pairs_g4(x + 1, 3, j4, by + q0), sph_pairs_g4(x + 2, 3, j4, bz + q0);
+          __m256d c0, c1;
+          sph_pairs_xy4(x, j4, &c0, &c1);
+          _mm256_storeu_pd(bx + q0, c0), _mm256_storeu_pd(by + q0, c1), sph_pairs_g4(x + 2, 3, j4, bz + q0);
           sph_pairs_g4(h, 1, j4, bh + q0);
         }
         int q = 0;
         for (; q + 4 <= nk; q += 4) {
           const ej_idx *restrict j4 = jb + q;
-          sph_pairs_g4(v, 3, j4, bvx + q), sph_pairs_g4(v + 1, 3, j4, bvy + q), sph_pairs_g4(v + 2, 3, j4, bvz + q);
+          __m256d c0, c1;
+          sph_pairs_xy4(v, j4, &c0, &c1);
+          _mm256_storeu_pd(bvx + q, c0), _mm256_storeu_pd(bvy + q, c1), sph_pairs_g4(v + 2, 3, j4, bvz + q);
           sph_pairs_g4(rho, 1, j4, brho + q), sph_pairs_g4(c, 1, j4, bc + q);
           sph_pairs_g4(p_rho2, 1, j4, bpr + q), sph_pairs_g4(m, 1, j4, bm + q);
           if (sym)
-            for (int t = 0; t < 6; ++t) sph_pairs_g4(M + t, 6, j4, bM[t] + q);
+            sph_pairs_m6(M, j4, bM[0] + q, sym ? SPH_BLK : 1);
         }
         for (; q < nk; ++q) {
           const ej_idx j = jb[q];
@@ -1427,8 +1453,11 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
                                                      ej_off *k, const ej_off kend, const ej_real xi0,
                                                      const ej_real xi1, const ej_real xi2, const ej_real hi,
                                                      ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
-                                                     ej_real *restrict bh, ej_idx *restrict jb)
+                                                     ej_real *restrict bh, ej_idx *restrict jb,
+                                                     uint64_t *restrict km, const ej_off kbase)
 {
+  /* km (the shape pass, or NULL): the kept entries' bits are or-ed into the row's mask words, bit
+   * (kk - kbase) for list entry kk (test_sph_shape_masks: rows of several blocks and words) */
   int nk = 0;
   ej_off kk = *k;
 #if defined(__AVX2__)
@@ -1440,7 +1469,8 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
       const ej_idx ja = idx[kk], jbb = idx[kk + 1], jc = idx[kk + 2], jd = idx[kk + 3];
       const ej_real *xa = x + 3 * (size_t)ja, *xb = x + 3 * (size_t)jbb, *xc = x + 3 * (size_t)jc,
                     *xd = x + 3 * (size_t)jd;
-      const __m256d X = _mm256_set_pd(xd[0], xc[0], xb[0], xa[0]), Y = _mm256_set_pd(xd[1], xc[1], xb[1], xa[1]);
+      __m256d X, Y;
+      sph_pairs_xy4(x, idx + kk, &X, &Y);
       const __m256d Z = _mm256_set_pd(xd[2], xc[2], xb[2], xa[2]), H = _mm256_set_pd(h[jd], h[jc], h[jbb], h[ja]);
       const __m256d hb = _mm256_mul_pd(half, _mm256_add_pd(vhi, H));
       const __m256d d0 = _mm256_sub_pd(vx0, X), d1 = _mm256_sub_pd(vx1, Y), d2 = _mm256_sub_pd(vx2, Z);
@@ -1456,6 +1486,12 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
       _mm_storeu_si128((__m128i *)(void *)(jb + nk),
                        _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castsi128_si256(j4), pj)));
       nk += __builtin_popcount((unsigned)msk);
+      if (km) { /* a group after a block's scalar tail may straddle two words */
+        const ej_off pos = kk - kbase;
+        const unsigned sh = (unsigned)(pos & 63);
+        km[pos >> 6] |= (uint64_t)msk << sh;
+        if (sh > 60) km[(pos >> 6) + 1] |= (uint64_t)msk >> (64 - sh);
+      }
     }
   }
 #endif
@@ -1466,7 +1502,9 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
     const ej_real d0 = xi0 - xj0, d1 = dim > 1 ? xi1 - xj1 : 0.0, d2 = dim > 2 ? xi2 - xj2 : 0.0;
     const ej_real r2 = d0 * d0 + d1 * d1 + d2 * d2;
     bx[nk] = xj0, by[nk] = xj1, bz[nk] = xj2, bh[nk] = hj, jb[nk] = j;
-    nk += r2 < 4.0 * hb * hb;
+    const bool in = r2 < 4.0 * hb * hb;
+    if (km) km[(kk - kbase) >> 6] |= (uint64_t)in << ((kk - kbase) & 63);
+    nk += in;
   }
   *k = kk;
   return nk;
