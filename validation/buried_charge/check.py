@@ -34,10 +34,15 @@ sys.path.insert(0, os.path.join(ROOT, "tools"))
 import bubble  # noqa: E402  (tools/bubble.py: spacing(), measure())
 
 
-def scaled_scene(src, s, out, reach=None):
+def scaled_scene(src, s, out, reach=None, tlpd_opts=None):
     """The example with the charge spacing and the refined sand spacing times s (and pd_sph's
-    decohesion_reach replaced by `reach` when given)."""
+    decohesion_reach replaced by `reach` when given; `tlpd_opts`, e.g. {"contact": "unbonded",
+    "inversion": "point_failure"}, set on the tlpd soil set, replacing the example's own)."""
     t = open(src).read()
+    if tlpd_opts and "method: tlpd" in t:
+        for k in tlpd_opts:
+            t = re.sub(rf"\n    {k}: [^\n]*", "", t)
+        t = t.replace("    method: tlpd\n", "    method: tlpd\n" + "".join(f"    {k}: {v}\n" for k, v in tlpd_opts.items()))
     if reach is not None:
         t = t.replace("decohesion_reach: 0}", f"decohesion_reach: {reach:g}}}")
     t = re.sub(r"output: \{file: [^,]+,", f"output: {{file: {out},", t)
@@ -99,8 +104,11 @@ def main():
     ap.add_argument("--decohesion-reach", type=float, default=None,
                     help="pd_sph decohesion_reach for the tlpd runs (default: the example's, 0 = the former rule; "
                          "1 = contact, README third pass)")
+    ap.add_argument("--tlpd", default="",
+                    help="options of the tlpd soil set, e.g. 'contact=unbonded,inversion=point_failure' (issue 8)")
     ap.add_argument("--png", default=os.path.join(HERE, "buried_charge.png"))
     a = ap.parse_args()
+    tlpd_opts = dict(kv.split("=", 1) for kv in a.tlpd.split(",") if kv.strip())
     exe = os.path.join(a.build, "bin", "ejecta")
     os.makedirs(a.outdir, exist_ok=True)
     import matplotlib
@@ -112,7 +120,8 @@ def main():
         for s in [float(q) for q in levels.split(",") if q.strip()]:
             name = f"bc_{kind}_{s:g}"
             out = os.path.join(a.outdir, name + ".h5")
-            perf = run(exe, scaled_scene(os.path.join(ROOT, "examples", src), s, out, a.decohesion_reach),
+            perf = run(exe, scaled_scene(os.path.join(ROOT, "examples", src), s, out, a.decohesion_reach,
+                                           tlpd_opts),
                        os.path.join(a.outdir, name + ".yaml"), out, a.threads, a.reuse)
             crash = perf.get("crash") if perf else None
             if perf is None and not os.path.exists(out) and os.path.exists(out + ".partial"):

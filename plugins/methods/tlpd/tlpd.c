@@ -47,6 +47,10 @@ enum { TLPD_NONOBJ_RATE = 0, TLPD_NONOBJ_SMALL_STRAIN = 1 };
 static const char *const tlpd_nonobj_names[] = {"rate", "small_strain", NULL};
 enum { TLPD_HG_NONE = 0, TLPD_HG_ZHU_ZHAO = 1, TLPD_HG_SILLING = 2 };
 static const char *const tlpd_hg_names[] = {"none", "zhu_zhao", "silling", NULL};
+enum { TLPD_CONTACT_OFF = 0, TLPD_CONTACT_UNBONDED = 1, TLPD_CONTACT_ALL = 2 };
+static const char *const tlpd_contact_names[] = {"off", "unbonded", "all", NULL};
+enum { TLPD_INV_ABORT = 0, TLPD_INV_POINT_FAILURE = 1 };
+static const char *const tlpd_inv_names[] = {"abort", "point_failure", NULL};
 
 typedef struct tlpd_failure_cfg {
   ej_real critical_stretch;
@@ -75,6 +79,8 @@ typedef struct tlpd_config {
   bool energy_correction;
   bool ghost_force_correction;
   ej_real damping;
+  int contact;
+  int inversion;
   tlpd_failure_cfg failure;
   tlpd_traction_cfg traction;
 } tlpd_config;
@@ -145,6 +151,15 @@ static const ej_param tlpd_params[] = {
     EJ_PARAM_REAL(tlpd_config, damping, "1/s", 0, 0, 0, EJ_PF_HAS_MIN,
                   "Mass-proportional velocity damping a -= damping v (for quasi-static runs); the removed "
                   "energy is reported as dissipated."),
+    EJ_PARAM_ENUM(tlpd_config, contact, tlpd_contact_names, "off",
+                  "Short-range contact (LAMMPS pair peri, Silling & Askari 2005): repulsion 15 c_s V_j (d - r)/delta, "
+                  "c_s = 18 K/(pi delta^4), between particles closer than d = min(0.9 |X_ij|, 1.35 min(dx_i, dx_j)); "
+                  "unbonded: pairs without an intact bond (broken, detached, or never in a family), all: every pair "
+                  "(LAMMPS), off."),
+    EJ_PARAM_ENUM(tlpd_config, inversion, tlpd_inv_names, "abort",
+                  "A particle whose F has det F <= 0 (or a singular F_n+1/2, a failed Hughes-Winget rotation): abort "
+                  "stops the run with an error; point_failure breaks all its bonds (detached, P = 0), counts it and "
+                  "goes on."),
     EJ_PARAM_BLOCK(tlpd_config, failure, tlpd_failure_params, tlpd_failure_cfg, 0,
                    "Bond breaking (critical stretch)."),
     EJ_PARAM_BLOCK(tlpd_config, traction, tlpd_traction_params, tlpd_traction_cfg, 0,
@@ -223,6 +238,22 @@ typedef struct tlpd_state {
    * bonds break); cached 2/sqrt(lambda_i), the time it was computed, the last refresh time */
   ej_real *hself, *hsum, *dt_fam, *dt_fam_t;
   _Atomic double t_refresh;
+  /* inversion: point_failure: particles point-failed at det F <= 0 */
+  uint8_t *pfail;      /* [n] */
+  /* contact: a dense cell grid over owned + ghost particles, rebuilt once per force pass
+   * (serial, first range in); cells >= 1.35 dx_min, row i searches 1.35 dx_i around it */
+  ej_real c_dxmin;     /* smallest dx over owned + ghost particles (grid cells >= 1.35 dx_min) */
+  ej_real c_gh, c_glo[3];
+  int64_t c_gn[3];
+  size_t c_ncap;       /* cells allocated (4 nall + 64, the cap of pd's grid) */
+  uint32_t *c_cellof;  /* [nall] */
+  ej_idx *c_order;     /* [nall] particles sorted by cell (stable: ascending index in a cell) */
+  uint32_t *c_start;   /* [c_ncap + 1] */
+  _Atomic double c_grid_t;
+  atomic_llong c_grid_epoch;
+  atomic_llong epoch;  /* bumped by report (once per step) */
+  ej_real *kc;         /* [n] contact stiffness sum_j 15 c_s V_j / delta of the last force pass (stable step) */
+  int32_t *ncont;      /* [n] contact pairs of row i in the last force pass */
   /* serial report accumulators */
   ej_real w_traction, w_damping, t_last;
 } tlpd_state;
@@ -286,6 +317,8 @@ static void tlpd_free_arrays(tlpd_state *s)
   ej_free(s->mixed), ej_free(s->full), ej_free(s->gf_state), ej_free(s->egf);
   ej_free(s->hself), ej_free(s->hsum), ej_free(s->dt_fam), ej_free(s->dt_fam_t);
   ej_free(s->jmax), ej_free(s->notok);
+  ej_free(s->pfail), ej_free(s->kc), ej_free(s->ncont);
+  ej_free(s->c_cellof), ej_free(s->c_order), ej_free(s->c_start);
 }
 
 static void tlpd_destroy(void *state)
@@ -326,6 +359,9 @@ static ej_err tlpd_create(const void *config, ej_set *set, const ej_model *model
   atomic_init(&s->ready, 0);
   atomic_init(&s->any_failed, 0);
   atomic_init(&s->n_notok, 0);
+  atomic_init(&s->c_grid_t, NAN);
+  atomic_init(&s->c_grid_epoch, -1);
+  atomic_init(&s->epoch, 0);
   *state = s;
   return EJ_OK;
 }
@@ -463,9 +499,26 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->p_eos = ej_calloc(nn, sizeof *s->p_eos);
     s->c_eos = ej_calloc(nn, sizeof *s->c_eos);
   }
+  s->pfail = ej_calloc(nn, 1);
+  bool c_ok = true;
+  if (s->cfg.contact != TLPD_CONTACT_OFF) {
+    const ej_idx nall = ej_set_count_all(set);
+    const size_t na = (size_t)nall ? (size_t)nall : 1;
+    const ej_real *vol0 = ej_set_field(set, "vol0");
+    ej_real vmin = HUGE_VAL;
+    for (ej_idx i = 0; vol0 && i < nall; ++i) vmin = fmin(vmin, vol0[i]);
+    s->c_dxmin = nall > 0 ? tlpd_dx(s, vmin) : 0;
+    s->c_ncap = 4 * na + 64;
+    s->kc = ej_calloc(nn, sizeof *s->kc);
+    s->ncont = ej_calloc(nn, sizeof *s->ncont);
+    s->c_cellof = ej_malloc(na * sizeof *s->c_cellof);
+    s->c_order = ej_malloc(na * sizeof *s->c_order);
+    s->c_start = ej_malloc((s->c_ncap + 1) * sizeof *s->c_start);
+    c_ok = s->kc && s->ncont && s->c_cellof && s->c_order && s->c_start && (nall == 0 || s->c_dxmin > 0);
+  }
   if (!s->wa || !s->wb || !s->Kinv || !s->d6 || !s->wp || !s->area || !s->row_ready || !s->n_fallback || !s->fprev_ok || !s->row_intact || !s->aint || !s->vpred || !s->vp_ok || !s->dxp || !s->nbroken ||
       !s->m1 || !s->mixed || !s->full || !s->gf_state || !s->egf || !s->hself || !s->hsum || !s->dt_fam || !s->dt_fam_t ||
-      !s->jmax || !s->notok || (s->eos && (!s->p_eos || !s->c_eos))) {
+      !s->jmax || !s->notok || (s->eos && (!s->p_eos || !s->c_eos)) || !s->pfail || !c_ok) {
     tlpd_free_arrays(s);
     s->wa = s->wb = NULL;
     s->Kinv = s->d6 = s->wp = s->area = s->p_eos = s->c_eos = NULL;
@@ -478,6 +531,11 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->egf = NULL;
     s->jmax = NULL;
     s->notok = NULL;
+    s->pfail = NULL;
+    s->kc = NULL;
+    s->ncont = NULL;
+    s->c_cellof = s->c_start = NULL;
+    s->c_order = NULL;
     EJ_FAIL(EJ_ERR_MEM, "set '%s': tlpd out of memory for %lld bonds", s->name, (long long)s->nb);
   }
   return EJ_OK;
@@ -640,6 +698,22 @@ static ej_err tlpd_bad(const tlpd_state *s, const ej_set *set, ej_idx i, const c
           x[3 * i], x[3 * i + 1], x[3 * i + 2], what, val);
 }
 
+/* inversion: point_failure (issue 8): particle i, whose F is inverted or singular (det F <= 0,
+ * det F_n+1/2 = 0, or no Hughes-Winget rotation), is detached for the rest of this step (status
+ * TLPD_DETACHED: F = I, P = 0, no hourglass force; its neighbours' force states on it still act,
+ * so momentum stays exact) and flagged `failed` after the material batch, so that post_step breaks
+ * every bond at both ends (the point failure of 000 section 5, symmetric). Counted in pfail. */
+static void tlpd_point_fail(tlpd_state *s, int32_t *status, ej_idx i)
+{
+  status[i] = TLPD_DETACHED;
+  s->pfail[i] = 1;
+  s->fprev_ok[i] = 0;
+  if (!s->notok[i]) {
+    s->notok[i] = 1;
+    atomic_fetch_add_explicit(&s->n_notok, 1, memory_order_relaxed);
+  }
+}
+
 static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
 {
   const ej_real *restrict x = ej_set_field(set, "x"), *restrict v = ej_set_field(set, "v");
@@ -665,6 +739,7 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
   const ej_real dt = ej_set_dt(set);
   const int dim = s->dim;
   const bool objective = s->cfg.objective;
+  const bool pfail_on = s->cfg.inversion == TLPD_INV_POINT_FAILURE;
 
   memcpy(s->vpred + 3 * (size_t)r.begin, v + 3 * (size_t)r.begin, 3 * (size_t)(r.end - r.begin) * sizeof *v);
   memset(s->vp_ok + r.begin, 1, (size_t)(r.end - r.begin));
@@ -758,7 +833,10 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
       /* 000 Eqs 79, 88-90: h = grad_X du F_n+1/2^-1 */
       ej_real Fh[9], Fhi[9], h[9];
       for (int k = 0; k < 9; ++k) Fh[k] = Fi[k] - 0.5 * dF[k];
-      if (ej_m3_inverse(Fhi, Fh) == 0) return tlpd_bad(s, set, i, "det F_n+1/2", ej_m3_det(Fh));
+      if (ej_m3_inverse(Fhi, Fh) == 0) {
+        if (!pfail_on) return tlpd_bad(s, set, i, "det F_n+1/2", ej_m3_det(Fh));
+        goto inverted;
+      }
       ej_real d6h[6];
       if (objective || s->cfg.nonobjective == TLPD_NONOBJ_RATE) {
         /* objective: false with nonobjective: rate skips only the rotation below (000 Eq 92
@@ -780,11 +858,17 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
         ej_real om[9], Q[9];
         ej_m3_skew(om, h);
         /* Lambda = (I - omega/2)^-1 (I + omega/2) (Eq 94, alpha = 1/2); sigma_hat = Lambda sigma Lambda^T */
-        if (!ej_hughes_winget(Q, om, 1.0)) return tlpd_bad(s, set, i, "Hughes-Winget |omega|", ej_m3_norm(om));
+        if (!ej_hughes_winget(Q, om, 1.0)) {
+          if (!pfail_on) return tlpd_bad(s, set, i, "Hughes-Winget |omega|", ej_m3_norm(om));
+          goto inverted;
+        }
         ej_s6_rotate(stress + 6 * i, Q, stress + 6 * i);
       }
       const ej_real J = ej_m3_det(Fi);
-      if (!(J > 0)) return tlpd_bad(s, set, i, "det F", J);
+      if (!(J > 0)) {
+        if (!pfail_on) return tlpd_bad(s, set, i, "det F", J);
+        goto inverted;
+      }
       rho[i] = m[i] / (vol0[i] * J);
       /* keep Fd for the stress power below: stash in PK (overwritten after the material) */
       memcpy(PK + 9 * i, Fd, sizeof Fd);
@@ -797,11 +881,13 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
         e_dot[i] += ehg;
         w_dot[i] += ehg;
       }
-    } else {
-      ej_m3_identity(Fi);
-      for (int k = 0; k < 6; ++k) di[k] = 0;
-      rho[i] = m[i] / vol0[i];
-    }
+      continue;
+    inverted:
+      tlpd_point_fail(s, status, i);
+    } /* not a correspondence point (fallback, detached, or point-failed just now) */
+    ej_m3_identity(Fi);
+    for (int k = 0; k < 6; ++k) di[k] = 0;
+    rho[i] = m[i] / vol0[i];
   }
   /* the strength model over the range (VUMAT-like batch) */
   const ej_idx nr = r.end - r.begin;
@@ -821,8 +907,18 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
   bool any_failed = false;
   for (ej_idx i = r.begin; i < r.end; ++i) {
     w_pl[i] += s->wp[i];
+    if (s->pfail[i]) failed[i] = 1; /* point failure at inversion: post_step breaks its bonds */
     any_failed |= failed[i] != 0;
     ej_real *PKi = PK + 9 * i;
+    if (status[i] == TLPD_OK && pfail_on) {
+      ej_real Ft[9];
+      if (ej_m3_inverse(Ft, F + 9 * i) == 0) {
+        tlpd_point_fail(s, status, i);
+        failed[i] = 1;
+        any_failed = true;
+        ej_m3_identity(F + 9 * i);
+      }
+    }
     if (status[i] != TLPD_OK) {
       if (status[i] == TLPD_DETACHED) memset(stress + 6 * i, 0, 6 * sizeof *stress); /* 000 section 5: P = 0 */
       memset(PKi, 0, 9 * sizeof *PKi);
@@ -854,6 +950,156 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
   }
   if (any_failed) atomic_store_explicit(&s->any_failed, 1, memory_order_relaxed);
   return EJ_OK;
+}
+
+/* ------------------------------------------------------------------ contact (issue 8) */
+
+/* Short-range contact as LAMMPS pair peri applies it (pair_peri_pmb.cpp / pair_peri_lps.cpp
+ * "short-range forces"; Silling & Askari 2005, the contact of their section 7; the same law as
+ * ejecta's pd method, plugins/methods/pd/README.md): two particles closer than
+ *   d_ij = min(0.9 |X_ij|, 1.35 lc_ij),   lc_ij = min(dx_i, dx_j) (LAMMPS: the lattice constant),
+ * repel with the force density on i
+ *   f_i = 15 c_s V_j (d_ij - r)/delta_ij (x_i - x_j)/r,   c_s = 18 K / (pi delta_ij^4)
+ * (LAMMPS's kshort: the PMB micromodulus of the bulk modulus K; the 3-D formula in every dimension),
+ * delta_ij = (delta_i + delta_j)/2. Force V_i f_i = -(V_j f_j): antisymmetric, so momentum is
+ * conserved to round-off; each row sums its own pairs (gather form). The pair is a spring of energy
+ * U = V_i V_j 15 c_s (d - r)^2 / (2 delta); its power -dU/dt = F_ij.(v_i - v_j) is booked half per
+ * end into e (e_dot_i -= F_ij.(v_i - v_j) / (2 m_i)), so kinetic + internal is conserved and the
+ * core's budget closes (as the hourglass forces' power); the contact acceleration also enters aint,
+ * so energy_correction's identity sum m (a_int.z + e_dot(z)) = 0 still holds. `unbonded` leaves out
+ * pairs joined by an intact bond (the correspondence stress already resists their compression). */
+
+/* dense grid over the bounding box of owned + ghost particles (serial, once per force pass; the
+ * cells grow when fragments spread so far that they would outnumber 4 nall + 64, as pd's grid) */
+static ej_err tlpd_contact_grid(tlpd_state *s, const ej_set *set)
+{
+  const ej_idx na = ej_set_count_all(set);
+  const ej_real *x = ej_set_field(set, "x");
+  const int dim = s->dim;
+  ej_real lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+  for (int d = 0; d < dim; ++d) lo[d] = HUGE_VAL, hi[d] = -HUGE_VAL;
+  for (ej_idx p = 0; p < na; ++p)
+    for (int d = 0; d < dim; ++d) {
+      const ej_real v = x[3 * (size_t)p + d];
+      EJ_ENSURE(isfinite(v), EJ_ERR_NUMERIC, "set '%s': tlpd particle %d has a non-finite position", s->name, (int)p);
+      lo[d] = v < lo[d] ? v : lo[d];
+      hi[d] = v > hi[d] ? v : hi[d];
+    }
+  ej_real h = 1.35 * s->c_dxmin;
+  size_t nc;
+  for (;;) {
+    nc = 1;
+    for (int d = 0; d < 3; ++d) {
+      s->c_gn[d] = d < dim && na ? (int64_t)floor((hi[d] - lo[d]) / h) + 1 : 1;
+      nc *= (size_t)s->c_gn[d];
+    }
+    if (nc <= s->c_ncap) break;
+    h *= 1.25;
+  }
+  s->c_gh = h;
+  memcpy(s->c_glo, lo, sizeof lo);
+  memset(s->c_start, 0, (nc + 1) * sizeof *s->c_start);
+  const ej_real ih = 1.0 / h;
+  for (ej_idx p = 0; p < na; ++p) {
+    int64_t c = 0;
+    for (int d = dim - 1; d >= 0; --d) {
+      int64_t k = (int64_t)((x[3 * (size_t)p + d] - lo[d]) * ih);
+      k = k < 0 ? 0 : k >= s->c_gn[d] ? s->c_gn[d] - 1 : k;
+      c = c * s->c_gn[d] + k;
+    }
+    s->c_cellof[p] = (uint32_t)c;
+    s->c_start[c + 1]++;
+  }
+  for (size_t c = 0; c < nc; ++c) s->c_start[c + 1] += s->c_start[c];
+  for (ej_idx p = 0; p < na; ++p) s->c_order[s->c_start[s->c_cellof[p]]++] = p;
+  for (size_t c = nc; c > 0; --c) s->c_start[c] = s->c_start[c - 1];
+  s->c_start[0] = 0;
+  return EJ_OK;
+}
+
+/* the first range of a force pass builds the grid (key: time and report's step epoch) */
+static ej_err tlpd_contact_ready(tlpd_state *s, const ej_set *set)
+{
+  const double t = ej_set_time(set);
+  const long long ep = atomic_load_explicit(&s->epoch, memory_order_acquire);
+  if (atomic_load_explicit(&s->c_grid_t, memory_order_acquire) == t &&
+      atomic_load_explicit(&s->c_grid_epoch, memory_order_acquire) == ep)
+    return EJ_OK;
+  ej_err rc = EJ_OK;
+#pragma omp critical(tlpd_contact_grid)
+  {
+    if (!(atomic_load_explicit(&s->c_grid_t, memory_order_relaxed) == t &&
+          atomic_load_explicit(&s->c_grid_epoch, memory_order_relaxed) == ep)) {
+      rc = tlpd_contact_grid(s, set);
+      if (rc == EJ_OK) {
+        atomic_store_explicit(&s->c_grid_epoch, ep, memory_order_release);
+        atomic_store_explicit(&s->c_grid_t, t, memory_order_release);
+      }
+    }
+  }
+  if (rc != EJ_OK) EJ_FAIL(rc, NULL);
+  return EJ_OK;
+}
+
+/* intact bond i-j in row i's reference family (rows sorted ascending: binary search) */
+static bool tlpd_bonded(const tlpd_state *s, const uint8_t *flags, ej_idx i, ej_idx j)
+{
+  ej_off lo = s->off[i], hi = s->off[i + 1];
+  while (lo < hi) {
+    const ej_off mid = lo + (hi - lo) / 2;
+    if (s->idx[mid] < j) lo = mid + 1;
+    else hi = mid;
+  }
+  return lo < s->off[i + 1] && s->idx[lo] == j && !(flags[lo] & TLPD_BROKEN);
+}
+
+/* contact force density on row i (f), its power share (pw, W/m^3: e_dot_i += pw vol0_i / m_i) and
+ * stiffness sum (ksum); cells scanned in a fixed order, so the sum does not depend on threads */
+static int tlpd_contact_row(const tlpd_state *s, const ej_set *set, ej_idx i, ej_real f[3], ej_real *pw, ej_real *ksum)
+{
+  const ej_real *x = ej_set_field(set, "x"), *v = ej_set_field(set, "v"), *x0 = ej_set_field(set, "x0");
+  const ej_real *vol0 = ej_set_field(set, "vol0");
+  const uint8_t *flags = ej_set_bond_flags(set);
+  const bool unb = s->cfg.contact == TLPD_CONTACT_UNBONDED;
+  const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2];
+  const ej_real dxi = tlpd_dx(s, vol0[i]), di = tlpd_delta(s, dxi);
+  const ej_real rc = 1.35 * dxi, rc2 = rc * rc; /* d_ij <= 1.35 min(dx_i, dx_j) <= 1.35 dx_i */
+  const int64_t nx = s->c_gn[0], ny = s->c_gn[1], nz = s->c_gn[2], gr = (int64_t)ceil(rc / s->c_gh - 1e-9);
+  const int64_t c = s->c_cellof[i], cx = c % nx, cy = (c / nx) % ny, cz = c / (nx * ny);
+  const int64_t xl = cx - gr > 0 ? cx - gr : 0, xh = cx + gr < nx ? cx + gr : nx - 1;
+  ej_real f0 = 0, f1 = 0, f2 = 0, p = 0, ks = 0;
+  int cnt = 0;
+  for (int64_t z = cz - gr; z <= cz + gr; ++z) {
+    if (z < 0 || z >= nz) continue;
+    for (int64_t y = cy - gr; y <= cy + gr; ++y) {
+      if (y < 0 || y >= ny) continue;
+      const int64_t base = (z * ny + y) * nx;
+      for (uint32_t q = s->c_start[base + xl]; q < s->c_start[base + xh + 1]; ++q) {
+        const ej_idx j = s->c_order[q];
+        if (j == i) continue;
+        const ej_real ex = xi - x[3 * j], ey = yi - x[3 * j + 1], ez = zi - x[3 * j + 2];
+        const ej_real r2 = ex * ex + ey * ey + ez * ez;
+        if (r2 >= rc2) continue;
+        const ej_real dxj = vol0[j] == vol0[i] ? dxi : tlpd_dx(s, vol0[j]);
+        const ej_real X0 = x0[3 * j] - x0[3 * i], X1 = x0[3 * j + 1] - x0[3 * i + 1], X2 = x0[3 * j + 2] - x0[3 * i + 2];
+        const ej_real d = fmin(0.9 * sqrt(X0 * X0 + X1 * X1 + X2 * X2), 1.35 * fmin(dxi, dxj));
+        if (r2 >= d * d) continue;
+        if (unb && tlpd_bonded(s, flags, i, j)) continue;
+        const ej_real dl = dxj == dxi ? di : 0.5 * (di + tlpd_delta(s, dxj));
+        const ej_real k = 15.0 * 18.0 * s->K / (M_PI * dl * dl * dl * dl * dl) * vol0[j];
+        const ej_real rr = sqrt(r2), fm = rr > 0 ? k * (d - rr) / rr : 0;
+        const ej_real g0 = fm * ex, g1 = fm * ey, g2 = fm * ez;
+        f0 += g0, f1 += g1, f2 += g2;
+        p -= 0.5 * (g0 * (v[3 * i] - v[3 * j]) + g1 * (v[3 * i + 1] - v[3 * j + 1]) + g2 * (v[3 * i + 2] - v[3 * j + 2]));
+        ks += k;
+        ++cnt;
+      }
+    }
+  }
+  f[0] = f0, f[1] = f1, f[2] = f2;
+  *pw = p;
+  *ksum = ks;
+  return cnt;
 }
 
 /* ------------------------------------------------------------------ pass 1: forces */
@@ -937,8 +1183,16 @@ static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej
   const ej_real *Kinv_f = ej_set_field(set, "K_inv");
   const bool gfc = s->cfg.ghost_force_correction && !s->wb_alias && !diff && Kinv_f;
   const bool all_ok = s->wb_alias && atomic_load_explicit(&s->n_notok, memory_order_relaxed) == 0;
+  const bool contact = s->cfg.contact != TLPD_CONTACT_OFF;
+  if (contact) EJ_TRY(tlpd_contact_ready(s, set));
   for (ej_idx i = r.begin; i < r.end; ++i) {
     const int si = status[i];
+    ej_real fc[3] = {0, 0, 0}, pc = 0; /* contact force density and power share */
+    if (contact) {
+      ej_real ks;
+      s->ncont[i] = tlpd_contact_row(s, set, i, fc, &pc, &ks);
+      s->kc[i] = ks;
+    }
     if (gfc && s->gf_state[i] == 0) tlpd_ghost_vector(s, set, nbr, i, Kinv_f);
     ej_real gc[3] = {0, 0, 0}; /* ghost-force correction -P_i e_i (force density) */
     if (gfc && s->gf_state[i] == 2 && si == TLPD_OK) {
@@ -991,8 +1245,12 @@ static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej
           f += TLPD_LD4(Gj) * X[0] + TLPD_LD4(Gj + 3) * X[1] + TLPD_LD3(Gj + 6) * X[2] + cy * Y;
         }
       }
-      const ej_real f0 = f[0] + gc[0], f1 = f[1] + gc[1], f2 = f[2] + gc[2];
+      ej_real f0 = f[0] + gc[0], f1 = f[1] + gc[1], f2 = f[2] + gc[2];
       const ej_real iv = vol0[i] / m[i];
+      if (contact) {
+        f0 += fc[0], f1 += fc[1], f2 += fc[2];
+        e_dot[i] += pc * iv;
+      }
       a[3 * i] += f0 * iv, a[3 * i + 1] += f1 * iv, a[3 * i + 2] += f2 * iv;
       if (gfc) { /* the correction's power into e (zero where gc = 0) */
         const ej_real pc = (gc[0] * v[3 * i] + gc[1] * v[3 * i + 1] + gc[2] * v[3 * i + 2]) * iv;
@@ -1080,6 +1338,10 @@ static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej
     }
     f0 += gc[0], f1 += gc[1], f2 += gc[2];
     ex -= gc[0] * vi0 + gc[1] * vi1 + gc[2] * vi2;
+    if (contact) {
+      f0 += fc[0], f1 += fc[1], f2 += fc[2];
+      ex += pc;
+    }
     /* force densities -> accelerations: rho0_i = m_i / vol0_i */
     const ej_real iv = vol0[i] / m[i];
     a[3 * i] += f0 * iv, a[3 * i + 1] += f1 * iv, a[3 * i + 2] += f2 * iv;
@@ -1280,6 +1542,13 @@ static ej_err tlpd_stable_dt(void *state, const ej_set *set, ej_range r, ej_real
       best = fmin(best, s->dt_fam[i]);
     }
   }
+  /* contact springs of the last force pass (Gershgorin, as the bond springs of tlpd_family_dt):
+   * lambda_i <= 2 sum_j k_ij / m_i, k_ij = V_i V_j 15 c_s / delta */
+  if (ready && s->cfg.contact != TLPD_CONTACT_OFF) {
+    const ej_real *m = ej_set_field(set, "m");
+    for (ej_idx i = r.begin; i < r.end; ++i)
+      if (s->kc[i] > 0) best = fmin(best, 2 / sqrt(2 * s->kc[i] * vol0[i] / m[i]));
+  }
   if (s->cfg.damping > 0) best = fmin(best, 1.0 / s->cfg.damping);
   *dt = best;
   return EJ_OK;
@@ -1337,6 +1606,17 @@ static ej_err tlpd_report(void *state, const ej_set *set, ej_series_value *out, 
   out[3] = (ej_series_value){.name = "traction_work", .value = s->w_traction, .role = EJ_SERIES_WORK};
   out[4] = (ej_series_value){.name = "damping_dissipated", .value = s->w_damping, .role = EJ_SERIES_DISSIPATED};
   *n = 5;
+  atomic_fetch_add_explicit(&s->epoch, 1, memory_order_acq_rel); /* a new step: the contact grid is rebuilt */
+  if (s->cfg.inversion == TLPD_INV_POINT_FAILURE && max > *n) {
+    int64_t pf = 0;
+    for (ej_idx i = 0; atomic_load(&s->ready) && i < s->n; ++i) pf += s->pfail[i];
+    out[(*n)++] = (ej_series_value){.name = "inverted_failed", .value = (ej_real)pf, .role = EJ_SERIES_PLAIN};
+  }
+  if (s->cfg.contact != TLPD_CONTACT_OFF && max > *n) {
+    int64_t nc = 0;
+    for (ej_idx i = 0; atomic_load(&s->ready) && i < s->n; ++i) nc += s->ncont[i];
+    out[(*n)++] = (ej_series_value){.name = "contact_pairs", .value = (ej_real)nc, .role = EJ_SERIES_PLAIN};
+  }
   return EJ_OK;
 }
 
@@ -1352,6 +1632,11 @@ static ej_err tlpd_counters(void *state, ej_counter *out, int max, int *n)
   out[1] = (ej_counter){.name = "broken bonds (both directions)", .value = broken};
   out[2] = (ej_counter){.name = "detached particles", .value = det};
   *n = 3;
+  if (s->cfg.inversion == TLPD_INV_POINT_FAILURE && max > *n) {
+    int64_t pf = 0;
+    for (ej_idx i = 0; atomic_load(&s->ready) && i < s->n; ++i) pf += s->pfail[i];
+    out[(*n)++] = (ej_counter){.name = "point failures at det F <= 0 (particles)", .value = pf};
+  }
   return EJ_OK;
 }
 

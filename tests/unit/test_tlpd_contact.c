@@ -1,0 +1,273 @@
+/* tlpd short-range contact (`contact`) and point failure at inversion (`inversion:
+ * point_failure`), issue 8: two detached particles approaching head-on bounce back with momentum
+ * conserved to round-off and the energy budget closed; a particle driven to det F <= 0 is
+ * point-failed (all bonds broken, counted) instead of stopping the run, and `inversion: abort`
+ * (the default) still stops it. */
+#include <check.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "core_impl.h"
+
+const ej_plugin_info *ej_plugin_tlpd_info(void);
+const ej_plugin_info *ej_plugin_elastic_info(void);
+
+#define MAT "materials: {m: {model: elastic, rho0: 2000, E: 1 GPa, nu: 0.25}}\n"
+
+typedef struct crun {
+  ej_registry *reg;
+  ej_scene *sc;
+  ej_sim *sim;
+  char dir[64], path[128], h5[128];
+} crun;
+
+static int crun_threads = 1;
+
+static ej_err crun_open(crun *r, const char *yaml)
+{
+  memset(r, 0, sizeof *r);
+  snprintf(r->dir, sizeof r->dir, "/tmp/ej_tlpdc_XXXXXX");
+  ck_assert_ptr_nonnull(mkdtemp(r->dir));
+  snprintf(r->path, sizeof r->path, "%s/s.yaml", r->dir);
+  snprintf(r->h5, sizeof r->h5, "%s/o.h5", r->dir);
+  FILE *f = fopen(r->path, "w");
+  ck_assert_ptr_nonnull(f);
+  fprintf(f, "%s\noutput: {file: %s}\n", yaml, r->h5);
+  fclose(f);
+  ck_assert_int_eq(ej_registry_create(&r->reg), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_tlpd_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_elastic_info()), EJ_OK);
+  ej_err rc = ej_scene_load(r->path, r->reg, &r->sc);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  ej_run_opts o = {.struct_size = sizeof o, .threads = crun_threads};
+  rc = ej_sim_create(r->sc, r->reg, &o, &r->sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  return EJ_OK;
+}
+
+static void crun_close(crun *r)
+{
+  ej_sim_destroy(r->sim);
+  ej_scene_destroy(r->sc);
+  ej_registry_destroy(r->reg);
+  char p[256];
+  const char *names[] = {"s.yaml", "o.h5", "o.h5.partial", "o.xdmf"};
+  for (int k = 0; k < 4; ++k) {
+    snprintf(p, sizeof p, "%s/%s", r->dir, names[k]);
+    unlink(p);
+  }
+  rmdir(r->dir);
+}
+
+static void momentum(const ej_set *s, double p[3], double *ke)
+{
+  const ej_real *v = ej_set_field(s, "v"), *m = ej_set_field(s, "m");
+  p[0] = p[1] = p[2] = 0;
+  *ke = 0;
+  for (ej_idx i = 0; i < ej_set_count(s); ++i) {
+    for (int a = 0; a < 3; ++a) p[a] += m[i] * v[3 * i + a];
+    *ke += 0.5 * m[i] * (v[3 * i] * v[3 * i] + v[3 * i + 1] * v[3 * i + 1] + v[3 * i + 2] * v[3 * i + 2]);
+  }
+}
+
+/* Two particles 50 mm apart (spacing 10 mm, horizon 3: R = 35 mm, so no bond: both detached from
+ * the start), approaching head-on at 50 + 30 m/s (unequal, so the momentum is not zero). The
+ * contact distance is min(0.9 x 50, 1.35 x 10) = 13.5 mm; the LAMMPS spring (k = 15 c_s V_j /
+ * delta, c_s = 18 K / (pi delta^4)) stops them at ~2 mm penetration and, being elastic, sends them
+ * back with the relative speed reversed (to the integrator's error). */
+static double bounce(const char *mode, double cfl, bool expect_contact)
+{
+  char y[2048];
+  snprintf(y, sizeof y,
+           "ejecta: 1\ndimension: 3\ntime: {end: 1.2e-3, cfl: %g}\n" MAT
+           "sets: {b: {method: tlpd, material: m, contact: %s, spacing: 0.01,\n"
+           "  shape: {union: [{box: {min: [0, 0, 0], max: [0.01, 0.01, 0.01]}}, {box: {min: [0.05, 0, 0], max: [0.06, 0.01, 0.01]}}]},\n"
+           "  initial: [{region: {box: {min: [-1, -1, -1], max: [0.03, 1, 1]}}, velocity: [50, 0, 0]},\n"
+           "            {region: {box: {min: [0.03, -1, -1], max: [1, 1, 1]}}, velocity: [-30, 0, 0]}]}}\n",
+           cfl, mode);
+  crun r;
+  crun_open(&r, y);
+  ej_set *s = r.sim->sets[0];
+  ck_assert_int_eq(ej_set_count(s), 2);
+  double p0[3], k0, p1[3], k1;
+  momentum(s, p0, &k0);
+  const ej_real *v = ej_set_field(s, "v"), *x = ej_set_field(s, "x");
+  const double vrel0 = v[3] - v[0];
+  ej_err rc = ej_sim_run(r.sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  momentum(s, p1, &k1);
+  const int32_t *st = ej_set_field_int(s, "pd_status");
+  ck_assert_int_eq(st[0], 2);
+  ck_assert_int_eq(st[1], 2);
+  const double vrel1 = v[3] - v[0], gap = x[3] - x[0];
+  const double pscale = fabs(p0[0]) + 2e-3 * 80;
+  double dp = 0;
+  for (int a = 0; a < 3; ++a) dp = fmax(dp, fabs(p1[a] - p0[a]));
+  const double bal = fabs(r.sim->energy.balance) / k0, dke = fabs(k1 - k0) / k0;
+  fprintf(stderr, "tlpd contact %s, cfl %g: relative speed %.6g -> %.6g m/s, gap %.4g m, |dp| / p %.3e, KE %.6g -> %.6g J (%.2e), balance / KE0 %.3e\n",
+          mode, cfl, vrel0, vrel1, gap, dp / pscale, k0, k1, dke, bal);
+  ck_assert_msg(dp < 1e-13 * pscale, "momentum changed by %g", dp);
+  ck_assert(fabs(v[1]) + fabs(v[2]) + fabs(v[4]) + fabs(v[5]) == 0); /* head-on stays head-on */
+  if (expect_contact) {
+    /* bounced: the relative speed reversed and the budget closed (the contact's energy is in e
+     * while they touch, back to kinetic after) */
+    ck_assert_msg(vrel1 > 0 && fabs(vrel1 + vrel0) < 1e-3 * fabs(vrel0), "relative speed %g -> %g", vrel0, vrel1);
+    ck_assert_msg(bal < 1e-12, "energy balance / KE0 = %g", bal);
+    ck_assert_msg(gap > 0.0135, "still in contact: gap %g", gap);
+  } else {
+    /* no contact: they pass through each other at constant speed */
+    ck_assert(vrel1 == vrel0 && gap < 0);
+  }
+  crun_close(&r);
+  return dke;
+}
+
+/* The law is elastic: the kinetic energy comes back up to the integrator's error, which is second
+ * order in dt (the contact spring's omega dt = 0.28 at cfl 0.5): asserted < 1e-3 at cfl 0.5 and
+ * falling by more than 2.5x when dt halves. */
+static void bounce_energy(const char *mode)
+{
+  const double e1 = bounce(mode, 0.5, true), e2 = bounce(mode, 0.25, true);
+  fprintf(stderr, "tlpd contact %s: |KE1 - KE0| / KE0 %.3e (cfl 0.5), %.3e (cfl 0.25), ratio %.2f\n", mode, e1, e2, e1 / e2);
+  ck_assert_msg(e1 < 1e-3, "kinetic energy error %g", e1);
+  ck_assert_msg(e2 < e1 / 2.5, "not second order: %g -> %g", e1, e2);
+}
+
+START_TEST(test_contact_bounce_unbonded) { bounce_energy("unbonded"); }
+END_TEST
+START_TEST(test_contact_bounce_all) { bounce_energy("all"); }
+END_TEST
+START_TEST(test_contact_off_passes_through) { bounce("off", 0.5, false); }
+END_TEST
+
+/* Two halves of an elastic block driven into each other at 2 x 3000 m/s (c = 866 m/s, dx = 10 mm; impact strain ~ v/c > 1):
+ * the particles at the collision plane invert within a few steps. `inversion: abort` stops the
+ * run with det F <= 0; `point_failure` fails them (all bonds broken, counted), the run reaches its
+ * end, momentum stays exact and every point-failed particle is detached. */
+static ej_err invert_run(const char *opts, int64_t *npf, double *dprel, int64_t *ndet)
+{
+  char y[2048];
+  snprintf(y, sizeof y,
+           "ejecta: 1\ndimension: 3\ntime: {end: 1, cfl: 0.5, max_steps: 40}\n" MAT
+           "sets: {b: {method: tlpd, material: m, %s, spacing: 0.01,\n"
+           "  shape: {box: {min: [0, 0, 0], max: [0.05, 0.05, 0.08]}},\n"
+           "  initial: [{region: {box: {min: [-1, -1, -1], max: [1, 1, 0.04]}}, velocity: [0, 0, 3000]},\n"
+           "            {region: {box: {min: [-1, -1, 0.04], max: [1, 1, 1]}}, velocity: [0, 0, -3000]}]}}\n",
+           opts);
+  crun r;
+  crun_open(&r, y);
+  ej_set *s = r.sim->sets[0];
+  double p0[3], k0, p1[3], k1;
+  momentum(s, p0, &k0);
+  ej_err rc = ej_sim_run(r.sim);
+  momentum(s, p1, &k1);
+  double msum = 0;
+  const ej_real *m = ej_set_field(s, "m");
+  for (ej_idx i = 0; i < ej_set_count(s); ++i) msum += m[i];
+  *dprel = fmax(fabs(p1[0] - p0[0]), fmax(fabs(p1[1] - p0[1]), fabs(p1[2] - p0[2]))) / (msum * 3000);
+  ej_counter c[8];
+  int nc = 0;
+  *npf = -1;
+  *ndet = 0;
+  if (rc == EJ_OK) {
+    ck_assert_int_eq(s->mops->counters(s->mstate, c, 8, &nc), EJ_OK);
+    for (int k = 0; k < nc; ++k)
+      if (strstr(c[k].name, "det F")) *npf = c[k].value;
+    const int32_t *st = ej_set_field_int(s, "pd_status"), *fl = ej_set_field_int(s, "failed");
+    for (ej_idx i = 0; i < ej_set_count(s); ++i) {
+      *ndet += st[i] == 2;
+      if (fl[i]) ck_assert_int_eq(st[i], 2);
+    }
+  }
+  crun_close(&r);
+  return rc;
+}
+
+START_TEST(test_inversion_point_failure)
+{
+  int64_t npf, ndet;
+  double dp;
+  ej_err rc = invert_run("inversion: abort", &npf, &dp, &ndet);
+  fprintf(stderr, "tlpd inversion: abort -> rc %d\n", (int)rc);
+  ck_assert_int_eq(rc, EJ_ERR_NUMERIC);
+  ej_error_clear();
+  rc = invert_run("inversion: point_failure", &npf, &dp, &ndet);
+  if (rc != EJ_OK) ej_error_report("test");
+  fprintf(stderr, "tlpd inversion: point_failure -> rc %d, %lld point-failed, %lld detached, |dp| / (M v) %.3e\n", (int)rc,
+          (long long)npf, (long long)ndet, dp);
+  ck_assert_int_eq(rc, EJ_OK);
+  ck_assert_msg(npf > 0, "no particle point-failed");
+  ck_assert(ndet >= npf);
+  ck_assert_msg(dp < 1e-12, "momentum %g", dp);
+  /* with contact the failed particles still resist interpenetration; the run also completes */
+  rc = invert_run("inversion: point_failure, contact: unbonded", &npf, &dp, &ndet);
+  if (rc != EJ_OK) ej_error_report("test");
+  fprintf(stderr, "tlpd inversion + contact: rc %d, %lld point-failed, |dp| / (M v) %.3e\n", (int)rc, (long long)npf, dp);
+  ck_assert_int_eq(rc, EJ_OK);
+  ck_assert(npf > 0);
+  ck_assert_msg(dp < 1e-12, "momentum %g", dp);
+}
+END_TEST
+
+/* gather form: 1 and 2 threads give the same bits (contact grid built serially, rows scanned in a
+ * fixed cell order), with contact, point failures and bond breaking in the run */
+static void thread_run(int threads, ej_real **xv, ej_idx *n)
+{
+  crun_threads = threads;
+  crun r;
+  crun_open(&r, "ejecta: 1\ndimension: 3\ntime: {end: 1, cfl: 0.5, max_steps: 30}\n" MAT
+                "sets: {b: {method: tlpd, material: m, inversion: point_failure, contact: all, spacing: 0.01, jitter: 0.2,\n"
+                "  failure: {critical_stretch: 0.02}, shape: {box: {min: [0, 0, 0], max: [0.05, 0.05, 0.08]}},\n"
+                "  initial: [{region: {box: {min: [-1, -1, -1], max: [1, 1, 0.04]}}, velocity: [0, 0, 3000]},\n"
+                "            {region: {box: {min: [-1, -1, 0.04], max: [1, 1, 1]}}, velocity: [0, 0, -3000]}]}}\n");
+  crun_threads = 1;
+  ej_err rc = ej_sim_run(r.sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  ej_set *s = r.sim->sets[0];
+  *n = ej_set_count(s);
+  *xv = malloc(6 * (size_t)*n * sizeof **xv);
+  memcpy(*xv, ej_set_field(s, "x"), 3 * (size_t)*n * sizeof **xv);
+  memcpy(*xv + 3 * *n, ej_set_field(s, "v"), 3 * (size_t)*n * sizeof **xv);
+  crun_close(&r);
+}
+
+START_TEST(test_contact_threads_bitwise)
+{
+  ej_real *a, *b;
+  ej_idx na, nb;
+  thread_run(1, &a, &na);
+  thread_run(2, &b, &nb);
+  ck_assert_int_eq(na, nb);
+  ck_assert_msg(memcmp(a, b, 6 * (size_t)na * sizeof *a) == 0, "1 and 2 threads differ");
+  free(a), free(b);
+}
+END_TEST
+
+static Suite *suite(void)
+{
+  Suite *s = suite_create("tlpd_contact");
+  TCase *tc = tcase_create("core");
+  tcase_set_timeout(tc, 60);
+  tcase_add_test(tc, test_contact_bounce_unbonded);
+  tcase_add_test(tc, test_contact_bounce_all);
+  tcase_add_test(tc, test_contact_off_passes_through);
+  tcase_add_test(tc, test_inversion_point_failure);
+  tcase_add_test(tc, test_contact_threads_bitwise);
+  suite_add_tcase(s, tc);
+  return s;
+}
+
+int main(void)
+{
+  SRunner *sr = srunner_create(suite());
+  srunner_run_all(sr, CK_NORMAL);
+  const int nf = srunner_ntests_failed(sr);
+  srunner_free(sr);
+  return nf == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
+}
