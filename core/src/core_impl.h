@@ -387,6 +387,8 @@ struct ej_nbrlist {
   ej_idx *cell_start; /* [n_cells + 1] */
   ej_idx *cell_items; /* [item_cap] candidate indices sorted by cell */
   ej_idx *cell_of;    /* [item_cap] */
+  ej_real *cell_pos;  /* [4 pos_cap]: x, y, z, r of cell_items[k] at k, k + pos_cap, ... (SoA) */
+  int64_t pos_cap;
   int64_t cell_cap;
   ej_idx item_cap;
   /* one-pass build scratch: per-thread buffers of one block of rows */

@@ -1,11 +1,12 @@
 /* Cell-list neighbour search on a uniform grid and CSR lists (DESIGN.md "Neighbours").
  *
  * A build splits the candidates into radius classes, bins each class into its own grid of
- * cells (one stable counting sort over all the cells), then scans each row once
- * into the buffer of the thread that takes its block of rows; a prefix sum of the row counts
- * places the blocks in the CSR arrays. Each row is sorted ascending and its content does not
- * depend on the thread, so the list is bitwise identical for any OpenMP thread count
- * (DESIGN.md "Determinism"). */
+ * cells (one stable counting sort over all the cells; the candidates' coordinates and radii
+ * are copied in that order, so that a cell row is contiguous and tested four at a time with
+ * AVX2), then scans each row once into the buffer of the thread that takes its block of
+ * rows; a prefix sum of the row counts places the blocks in the CSR arrays. Each row is
+ * sorted ascending and its content does not depend on the thread, so the list is bitwise
+ * identical for any OpenMP thread count (DESIGN.md "Determinism"). */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -14,6 +15,9 @@
 
 #ifdef _OPENMP
 #include <omp.h>
+#endif
+#ifdef __AVX2__
+#include <immintrin.h>
 #endif
 
 #if defined(__GNUC__)
@@ -39,8 +43,14 @@ typedef struct ej_grid {
 } ej_grid;
 
 /* Sizes the grid over points x[0..n) (n > 0) with cells of at least h, enlarged until the
- * grid has at most max_cells cells: a few points in a huge box must not cost memory. */
-static ej_err ej_grid_setup(ej_grid *g, int dim, const ej_real *x, ej_idx n, ej_real h, int64_t max_cells)
+ * grid has at most max_cells cells: a few points in a huge box must not cost memory.
+ * With anchor (a lower corner, at or above the points' own), the grid's corner is moved down
+ * from anchor by whole cells: the cells are then those of the grid that ej_nbr_sort_order
+ * put the first particles in (the rows of a self list, whose lower corner anchor is), so a
+ * row's candidates come out nearly ascending and its sort is mostly the run check. The
+ * cells do not change which pairs are listed. */
+static ej_err ej_grid_setup(ej_grid *g, int dim, const ej_real *x, ej_idx n, ej_real h, int64_t max_cells,
+                            const ej_real *anchor)
 {
   ej_real lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
   for (int d = 0; d < dim; d++) lo[d] = hi[d] = x[d];
@@ -63,9 +73,14 @@ static ej_err ej_grid_setup(ej_grid *g, int dim, const ej_real *x, ej_idx n, ej_
   if (h < ext_max / (ej_real)max_cells) h = ext_max / (ej_real)max_cells;
 
   ej_real nc[3] = {1, 1, 1};
+  const ej_real lo_pts[3] = {lo[0], lo[1], lo[2]};
   for (;;) {
     ej_real total = 1;
     for (int d = 0; d < dim; d++) {
+      if (anchor) {
+        const ej_real a = anchor[d] - ceil((anchor[d] - lo_pts[d]) / h) * h;
+        lo[d] = isfinite(a) && a <= lo_pts[d] ? a : lo_pts[d];
+      }
       nc[d] = floor((hi[d] - lo[d]) / h) + 1;
       total *= nc[d];
     }
@@ -226,6 +241,7 @@ void ej_nbrlist_destroy(ej_nbrlist *L)
   ej_free(L->cell_start);
   ej_free(L->cell_items);
   ej_free(L->cell_of);
+  ej_free(L->cell_pos);
   for (int t = 0; t < L->n_tbuf; t++) ej_free(L->tbuf[t]);
   ej_free(L->tbuf);
   ej_free(L->tcap);
@@ -239,14 +255,43 @@ static EJ_ALWAYS_INLINE ej_real ej_cell_gap(ej_real t, int64_t c)
   return a > 0 ? a : (b > 0 ? b : 0);
 }
 
-/* Counts (out == NULL) or writes the candidates of row i; inlined with a constant dim so
- * the distance test is specialised. Only cells that the ball of radius
+#ifdef __AVX2__
+/* _mm_shuffle_epi8 masks packing the 32-bit lanes selected by a 4-bit mask to the front. */
+#define EJ_Z4 128, 128, 128, 128
+static const uint8_t ej_pack_lut[16][16] __attribute__((aligned(16))) = {
+    {EJ_Z4, EJ_Z4, EJ_Z4, EJ_Z4},
+    {0, 1, 2, 3, EJ_Z4, EJ_Z4, EJ_Z4},
+    {4, 5, 6, 7, EJ_Z4, EJ_Z4, EJ_Z4},
+    {0, 1, 2, 3, 4, 5, 6, 7, EJ_Z4, EJ_Z4},
+    {8, 9, 10, 11, EJ_Z4, EJ_Z4, EJ_Z4},
+    {0, 1, 2, 3, 8, 9, 10, 11, EJ_Z4, EJ_Z4},
+    {4, 5, 6, 7, 8, 9, 10, 11, EJ_Z4, EJ_Z4},
+    {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, EJ_Z4},
+    {12, 13, 14, 15, EJ_Z4, EJ_Z4, EJ_Z4},
+    {0, 1, 2, 3, 12, 13, 14, 15, EJ_Z4, EJ_Z4},
+    {4, 5, 6, 7, 12, 13, 14, 15, EJ_Z4, EJ_Z4},
+    {0, 1, 2, 3, 4, 5, 6, 7, 12, 13, 14, 15, EJ_Z4},
+    {8, 9, 10, 11, 12, 13, 14, 15, EJ_Z4, EJ_Z4},
+    {0, 1, 2, 3, 8, 9, 10, 11, 12, 13, 14, 15, EJ_Z4},
+    {4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, EJ_Z4},
+    {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15},
+};
+#undef EJ_Z4
+#endif
+
+/* Writes the candidates of row i into out[0..len); inlined with a constant dim so the
+ * distance test is specialised. Only cells that the ball of radius
  * R = max(ri, rb_max) + skin around xi can touch are scanned: per cell row along x (one
  * contiguous run of cell_items, since x is the fastest cell index) the x range is the
  * ball's chord over that row. Works in cell units; the margin on R covers the rounding of
- * the cell coordinates, so a pair that passes the test is never in a skipped cell. */
+ * the cell coordinates, so a pair that passes the test is never in a skipped cell.
+ * The candidates' coordinates and radii are read from P, a copy in cell_items order (SoA,
+ * component d at P + d ps), so a cell row is contiguous: with AVX2 four candidates are
+ * tested at once (the same operations in the same order as the scalar test, no FMA: the
+ * same pairs pass) and the passing indices packed by a byte shuffle. Returns len when the
+ * row may not fit (then out[0..len) is garbage), else the row's length. */
 static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, const ej_real *xi, ej_real ri,
-                                           ej_idx i, const ej_real *xb, const ej_real *rb, ej_real rb_max,
+                                           ej_idx i, const ej_real *P, int64_t ps, ej_real rb_max,
                                            ej_real skin, bool same, const ej_idx *cell_start,
                                            const ej_idx *cell_items, ej_idx *out, ej_idx len)
 {
@@ -265,8 +310,14 @@ static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, cons
   const ej_real r2_row = (ri + skin) * (ri + skin);
   const ej_real x0 = xi[0], x1 = dim > 1 ? xi[1] : 0, x2 = dim > 2 ? xi[2] : 0;
   const ej_idx self = same ? i : -1;
+  const ej_real *px = P, *py = P + ps, *pz = P + 2 * ps, *pr = P + 3 * ps;
+#ifdef __AVX2__
+  const __m256d vx0 = _mm256_set1_pd(x0), vx1 = _mm256_set1_pd(x1), vx2 = _mm256_set1_pd(x2);
+  const __m256d vr2 = _mm256_set1_pd(r2_row), vri = _mm256_set1_pd(ri), vskin = _mm256_set1_pd(skin);
+  const __m128i vself = _mm_set1_epi32(self);
+#endif
   ej_idx n = 0;
-  if (out && len == 0) return 0;
+  if (len == 0) return 0;
   for (int64_t cz = lo[2]; cz <= hi[2]; cz++) {
     const ej_real gz = dim > 2 ? ej_cell_gap(t[2], cz) : 0;
     for (int64_t cy = lo[1]; cy <= hi[1]; cy++) {
@@ -281,18 +332,46 @@ static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, cons
         if (cxl > cxh) continue;
       }
       const int64_t base = (cz * g->nc[1] + cy) * g->nc[0];
-      const ej_idx s = cell_start[base + cxl], e = cell_start[base + cxh + 1];
-      for (ej_idx k = s; k < e; k++) {
+      const ej_idx e = cell_start[base + cxh + 1];
+      ej_idx k = cell_start[base + cxl];
+#ifdef __AVX2__
+      /* Four at a time while four more entries fit: n <= len holds after each store. */
+      for (; k + 4 <= e && len - n >= 4; k += 4) {
+        const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(px + k), vx0);
+        __m256d d2 = _mm256_mul_pd(dx, dx);
+        if (dim > 1) {
+          const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(py + k), vx1);
+          d2 = _mm256_add_pd(d2, _mm256_mul_pd(dy, dy));
+        }
+        if (dim > 2) {
+          const __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(pz + k), vx2);
+          d2 = _mm256_add_pd(d2, _mm256_mul_pd(dz, dz));
+        }
+        __m256d lim = vr2;
+        if (!row_wide) {
+          /* max_pd(a, b) is a > b ? a : b, as max(ri, rj) below. */
+          const __m256d r = _mm256_add_pd(_mm256_max_pd(vri, _mm256_loadu_pd(pr + k)), vskin);
+          lim = _mm256_mul_pd(r, r);
+        }
+        const __m128i vj = _mm_loadu_si128((const __m128i *)(const void *)(cell_items + k));
+        const int m = _mm256_movemask_pd(_mm256_cmp_pd(d2, lim, _CMP_LT_OQ)) &
+                      ~_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(vj, vself)));
+        _mm_storeu_si128((__m128i *)(void *)(out + n),
+                         _mm_shuffle_epi8(vj, _mm_load_si128((const __m128i *)(const void *)ej_pack_lut[m])));
+        n += (ej_idx)__builtin_popcount((unsigned)m);
+      }
+      if (n == len) return n;
+#endif
+      for (; k < e; k++) {
         const ej_idx j = cell_items[k];
-        const ej_real *xj = xb + 3 * (size_t)j;
-        const ej_real dx = xj[0] - x0;
+        const ej_real dx = px[k] - x0;
         ej_real d2 = dx * dx;
         if (dim > 1) {
-          const ej_real dy = xj[1] - x1;
+          const ej_real dy = py[k] - x1;
           d2 = d2 + dy * dy;
         }
         if (dim > 2) {
-          const ej_real dz = xj[2] - x2;
+          const ej_real dz = pz[k] - x2;
           d2 = d2 + dz * dz;
         }
         ej_idx in;
@@ -300,20 +379,16 @@ static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, cons
           in = d2 < r2_row;
         } else {
           /* Same operations as max(ri, rj) + skin when ri < rj. */
-          const ej_real rj = rb[j];
+          const ej_real rj = pr[k];
           const ej_real r = (ri > rj ? ri : rj) + skin;
           in = d2 < r * r;
         }
         /* Branch-free: about a third of the candidates pass, at random. */
         in &= j != self;
-        if (out) {
-          /* The store is in the row while n < len, and the scan stops at len. */
-          out[n] = j;
-          n += in;
-          if (n == len) return n;
-        } else {
-          n += in;
-        }
+        /* The store is in the row while n < len, and the scan stops at len. */
+        out[n] = j;
+        n += in;
+        if (n == len) return n;
       }
     }
   }
@@ -325,14 +400,14 @@ static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, cons
 #define EJ_ROW_BLOCK 256
 
 static EJ_ALWAYS_INLINE ej_idx ej_row_scan_dim(const ej_grid *g, int dim, const ej_real *xi, ej_real ri, ej_idx i,
-                                               const ej_real *xb, const ej_real *rb, ej_real rb_max, ej_real skin,
+                                               const ej_real *P, int64_t ps, ej_real rb_max, ej_real skin,
                                                bool same, const ej_idx *cell_start, const ej_idx *cell_items,
                                                ej_idx *out, ej_idx len)
 {
   switch (dim) {
-  case 1: return ej_row_scan(g, 1, xi, ri, i, xb, rb, rb_max, skin, same, cell_start, cell_items, out, len);
-  case 2: return ej_row_scan(g, 2, xi, ri, i, xb, rb, rb_max, skin, same, cell_start, cell_items, out, len);
-  default: return ej_row_scan(g, 3, xi, ri, i, xb, rb, rb_max, skin, same, cell_start, cell_items, out, len);
+  case 1: return ej_row_scan(g, 1, xi, ri, i, P, ps, rb_max, skin, same, cell_start, cell_items, out, len);
+  case 2: return ej_row_scan(g, 2, xi, ri, i, P, ps, rb_max, skin, same, cell_start, cell_items, out, len);
+  default: return ej_row_scan(g, 3, xi, ri, i, P, ps, rb_max, skin, same, cell_start, cell_items, out, len);
   }
 }
 
@@ -378,12 +453,12 @@ static EJ_ALWAYS_INLINE int ej_radius_class(ej_real r, ej_real rb_max)
 
 /* Scans row i over every class into out[0..len); returns len when the row may not fit. */
 static EJ_ALWAYS_INLINE ej_idx ej_row_scan_classes(const ej_classes *K, int dim, const ej_real *xi, ej_real ri,
-                                                   ej_idx i, const ej_real *xb, const ej_real *rb, ej_real skin,
+                                                   ej_idx i, const ej_real *P, int64_t ps, ej_real skin,
                                                    bool same, const ej_idx *cell_items, ej_idx *out, ej_idx len)
 {
   ej_idx n = 0;
   for (int c = 0; c < K->n; c++) {
-    n += ej_row_scan_dim(&K->g[c], dim, xi, ri, i, xb, rb, K->rmax[c], skin, same, K->start[c], cell_items, out + n,
+    n += ej_row_scan_dim(&K->g[c], dim, xi, ri, i, P, ps, K->rmax[c], skin, same, K->start[c], cell_items, out + n,
                          len - n);
     if (n == len) return len;
   }
@@ -415,7 +490,7 @@ static bool ej_idx_grow_keep(ej_nbrlist *L, int64_t keep, int64_t need, int64_t 
  * count, and only the list (plus one block per thread) is held in memory. Returns false when
  * memory runs out. */
 static bool ej_rows_scan(ej_nbrlist *L, const ej_classes *K, int dim, const ej_real *xa, const ej_real *ra, ej_idx na,
-                         const ej_real *xb, const ej_real *rb, ej_real skin, bool same, const ej_idx *cell_items,
+                         const ej_real *P, int64_t ps, ej_real skin, bool same, const ej_idx *cell_items,
                          int64_t n_blk)
 {
   ej_off *off = L->off;
@@ -445,7 +520,7 @@ static bool ej_rows_scan(ej_nbrlist *L, const ej_classes *K, int dim, const ej_r
           }
           const int64_t room = cap - used;
           const ej_idx len = room < INT32_MAX ? (ej_idx)room : INT32_MAX;
-          n = ej_row_scan_classes(K, dim, xi, ra[i], i, xb, rb, skin, same, cell_items, buf + used, len);
+          n = ej_row_scan_classes(K, dim, xi, ra[i], i, P, ps, skin, same, cell_items, buf + used, len);
           if (n < len) break;
           /* the row may not fit: rescan it into a buffer at least twice as roomy */
           if (!ej_tbuf_grow(&buf, &cap, used, used + 2 * (int64_t)len)) {
@@ -569,6 +644,14 @@ ej_err ej_nbrlist_build(ej_nbrlist *L, int dim, const ej_real *xa, const ej_real
     n_in[c]++;
     if (rb[j] > r_in[c]) r_in[c] = rb[j];
   }
+  /* Lower corner of the rows (a self list's rows are the first na candidates). */
+  ej_real lo_rows[3] = {0, 0, 0};
+  if (same) {
+    for (int d = 0; d < dim; d++) lo_rows[d] = xa[d];
+    for (ej_idx i = 1; i < na; i++)
+      for (int d = 0; d < dim; d++)
+        if (xa[3 * (size_t)i + d] < lo_rows[d]) lo_rows[d] = xa[3 * (size_t)i + d];
+  }
   ej_classes K;
   int cls_of[EJ_NCLASS];
   int64_t base[EJ_NCLASS + 1];
@@ -586,7 +669,7 @@ ej_err ej_nbrlist_build(ej_nbrlist *L, int dim, const ej_real *xa, const ej_real
     ej_real hc = k == 0 ? h : (r_in[c] + skin) / EJ_CELL_SPLIT;
     if (!(hc > 0)) hc = h; /* zero radii and skin: their pairs are the rows' */
     /* at most 4 nb + 64 cells over all classes, as with one grid */
-    EJ_TRY(ej_grid_setup(&K.g[k], dim, xb, nb, hc, 4 * (int64_t)n_in[c] + 64 / n_used));
+    EJ_TRY(ej_grid_setup(&K.g[k], dim, xb, nb, hc, 4 * (int64_t)n_in[c] + 64 / n_used, same ? lo_rows : NULL));
     base[k + 1] = base[k] + K.g[k].n_cells;
   }
   const int64_t n_cells = base[K.n];
@@ -594,7 +677,21 @@ ej_err ej_nbrlist_build(ej_nbrlist *L, int dim, const ej_real *xa, const ej_real
 
   /* Bin candidates by a stable counting sort: cell_items lists j ascending within a cell. */
   cap = L->cell_cap + 1;
-  rc = ej_scratch_grow((void **)&L->cell_start, &cap, n_cells + 1, sizeof *L->cell_start, false);
+  /* When it must grow, room for one more cell per dimension in every class: the anchored
+   * corner moves by up to a cell between rebuilds, and must not reallocate each time. */
+  int64_t cells_room = n_cells;
+  if (n_cells + 1 > cap || !L->cell_start) {
+    cells_room = 0;
+    for (int k = 0; k < K.n; k++) {
+      int64_t c = 1;
+      for (int d = 0; d < dim; d++) c *= K.g[k].nc[d] + 1;
+      cells_room += c;
+    }
+    /* within the grids' own bound (4 nb + 64 cells in all) */
+    if (cells_room > 4 * (int64_t)nb + 64) cells_room = 4 * (int64_t)nb + 64;
+    if (cells_room < n_cells || cells_room >= INT32_MAX - 1) cells_room = n_cells;
+  }
+  rc = ej_scratch_grow((void **)&L->cell_start, &cap, cells_room + 1, sizeof *L->cell_start, false);
   L->cell_cap = cap > 0 ? cap - 1 : 0;
   EJ_TRY(rc);
   ej_idx *cell_start = L->cell_start;
@@ -619,7 +716,24 @@ ej_err ej_nbrlist_build(ej_nbrlist *L, int dim, const ej_real *xa, const ej_real
 #endif
   const int64_t n_blk = ((int64_t)na + EJ_ROW_BLOCK - 1) / EJ_ROW_BLOCK;
   EJ_TRY(ej_scan_scratch(L, n_thr));
-  const bool ok = ej_rows_scan(L, &K, dim, xa, ra, na, xb, rb, skin, same, cell_items, n_blk);
+  /* Candidates' coordinates and radii in cell_items order (SoA): cell rows are contiguous. */
+  if (nb > L->pos_cap) {
+    const int64_t want = (int64_t)nb + nb / 8 + 64;
+    ej_free(L->cell_pos);
+    L->pos_cap = 0;
+    L->cell_pos = ej_malloc((size_t)want * 4 * sizeof *L->cell_pos);
+    EJ_ENSURE(L->cell_pos, EJ_ERR_MEM, "out of memory for %lld neighbour candidates", (long long)want);
+    L->pos_cap = want;
+  }
+  ej_real *P = L->cell_pos;
+  const int64_t ps = L->pos_cap;
+#pragma omp parallel for schedule(static)
+  for (ej_idx k = 0; k < nb; k++) {
+    const ej_idx j = cell_items[k];
+    for (int d = 0; d < dim; d++) P[d * ps + k] = xb[3 * (size_t)j + d];
+    P[3 * ps + k] = rb[j];
+  }
+  const bool ok = ej_rows_scan(L, &K, dim, xa, ra, na, P, ps, skin, same, cell_items, n_blk);
   L->pub.idx = L->idx;
   EJ_ENSURE(ok, EJ_ERR_MEM, "out of memory for the neighbour rows of %d particles", (int)na);
   for (ej_idx i = 0; i < na; i++) L->off[i + 1] += L->off[i];
@@ -636,7 +750,7 @@ ej_err ej_nbr_sort_order(int dim, const ej_real *x, ej_idx n, ej_real cell, ej_i
   EJ_ENSURE(x && perm, EJ_ERR_ARG, "NULL positions or permutation");
 
   ej_grid g;
-  EJ_TRY(ej_grid_setup(&g, dim, x, n, cell, ej_cell_limit(n)));
+  EJ_TRY(ej_grid_setup(&g, dim, x, n, cell, ej_cell_limit(n), NULL));
   ej_err rc = EJ_OK;
   ej_idx *cell_of = ej_malloc((size_t)n * sizeof *cell_of);
   ej_idx *start = ej_calloc((size_t)g.n_cells + 1, sizeof *start);

@@ -319,6 +319,79 @@ END_TEST
 
 /* ------------------------------------------------------------------ determinism and reuse */
 
+/* Random clouds against brute force, covering the AVX2 path (four candidates at a time) and
+ * its scalar tails: cell-ordered and unordered particles, constant radii (rows as wide as
+ * every candidate) and graded ones, mirror ghosts appended to the candidates of a self list,
+ * set-to-set lists, pairs at exactly the cut-off distance, coincident points, and 1 and 2
+ * threads giving the same arrays. */
+START_TEST(test_random_reference)
+{
+  for (int dim = 1; dim <= 3; dim++) {
+    for (int variant = 0; variant < 4; variant++) {
+      uint64_t s = 9001 + 17 * (uint64_t)dim + (uint64_t)variant;
+      const ej_idx na = 700 + 111 * variant;
+      const ej_real size = dim == 1 ? 140 : dim == 2 ? 27 : 8.5;
+      ej_real *x = cloud(&s, na, dim, 0, size);
+      ej_real *r = radii(&s, na, 1.0, variant & 1 ? 2.5 : 1.0);
+      if (variant >= 2) { /* cell order, as the core leaves each set before a build */
+        ej_idx *perm = ej_malloc((size_t)na * sizeof *perm);
+        ej_real *xs = ej_malloc(3 * (size_t)na * sizeof *xs), *rs = ej_malloc((size_t)na * sizeof *rs);
+        /* cell R_max + skin: the list's grid is then aligned with the sort's */
+        ck_assert_int_eq(ej_nbr_sort_order(dim, x, na, variant & 1 ? 2.75 : 1.25, perm), EJ_OK);
+        for (ej_idx i = 0; i < na; i++) {
+          memcpy(xs + 3 * i, x + 3 * perm[i], 3 * sizeof *xs);
+          rs[i] = r[perm[i]];
+        }
+        memcpy(x, xs, 3 * (size_t)na * sizeof *x);
+        memcpy(r, rs, (size_t)na * sizeof *r);
+        ej_free(rs);
+        ej_free(xs);
+        ej_free(perm);
+      }
+      /* Exact ties: particle 1 at distance 1 + skin of particle 0 along x, particle 2 on
+       * particle 3 (distance 0). */
+      const ej_real skin = 0.25;
+      for (int d = 0; d < dim; d++) x[3 + d] = x[d] + (d == 0 ? (r[0] > r[1] ? r[0] : r[1]) + skin : 0);
+      for (int d = 0; d < 3; d++) x[6 + d] = x[9 + d];
+      /* Candidates: the set plus mirror ghosts of the particles within 3 of the plane x = 0. */
+      ej_idx ng = 0;
+      for (ej_idx i = 0; i < na; i++) ng += x[3 * i] < 3;
+      const ej_idx nb = na + ng;
+      ej_real *xb = ej_malloc(3 * (size_t)nb * sizeof *xb), *rb = ej_malloc((size_t)nb * sizeof *rb);
+      memcpy(xb, x, 3 * (size_t)na * sizeof *xb);
+      memcpy(rb, r, (size_t)na * sizeof *rb);
+      for (ej_idx i = 0, g = na; i < na; i++)
+        if (x[3 * i] < 3) {
+          memcpy(xb + 3 * g, x + 3 * i, 3 * sizeof *xb);
+          xb[3 * g] = -x[3 * i];
+          rb[g++] = r[i];
+        }
+      for (int thr = 1; thr <= 2; thr++) {
+        omp_set_num_threads(thr);
+        const int64_t p_self = check_build(dim, x, r, na, x, r, na, skin, true);
+        const int64_t p_ghost = check_build(dim, x, r, na, xb, rb, nb, skin, true);
+        ck_assert_int_gt(p_self, 4 * (int64_t)na);
+        ck_assert_int_gt(p_ghost, p_self);
+        /* Set to set: the first 300 particles against a second cloud over the same box. */
+        uint64_t s2 = s + 1;
+        const ej_idx nc = 400;
+        ej_real *xc = cloud(&s2, nc, dim, -1, size + 2);
+        ej_real *rc = radii(&s2, nc, 0.6, variant & 1 ? 4.0 : 1.0);
+        ck_assert_int_gt(check_build(dim, x, r, 300, xc, rc, nc, skin, false), 300);
+        ck_assert_int_gt(check_build(dim, xc, rc, nc, xb, rb, nb, skin, false), nc);
+        ej_free(rc);
+        ej_free(xc);
+      }
+      omp_set_num_threads(1);
+      ej_free(rb);
+      ej_free(xb);
+      ej_free(r);
+      ej_free(x);
+    }
+  }
+}
+END_TEST
+
 START_TEST(test_thread_determinism)
 {
   for (int dim = 1; dim <= 3; dim++) {
@@ -572,6 +645,7 @@ static Suite *neighbours_suite(void)
   tcase_add_test(tc, test_graded_radius);
   tcase_add_test(tc, test_degenerate);
   tcase_add_test(tc, test_bad_arguments);
+  tcase_add_test(tc, test_random_reference);
   tcase_add_test(tc, test_thread_determinism);
   tcase_add_test(tc, test_rebuild_reuses_scratch);
   tcase_add_test(tc, test_sort_order);
