@@ -26,16 +26,7 @@ typedef struct rs_snap {
 static void rs_scene(const char *path, const char *method_lines)
 {
   char init[4096];
-  size_t o = 0;
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 4; ++j) {
-      const double X = 0.125 * (i + 0.5), Y = 0.125 * (j + 0.5);
-      o += (size_t)snprintf(init + o, sizeof init - o,
-                            "      - {region: {box: {min: [%g, %g, -1], max: [%g, %g, 1]}}, velocity: [%.12g, %.12g, "
-                            "%.12g]}\n",
-                            0.125 * i, 0.125 * j, 0.125 * (i + 1), 0.125 * (j + 1), 0.01 * sin(5 * X) * (1 + Y * Y),
-                            0.01 * sin(7 * Y) * (1 + 2 * X * X), 0.01 * cos(3 * X) * cos(4 * Y));
-    }
+  smooth_block_initial(init, sizeof init, 0.01);
   char text[8192];
   snprintf(text, sizeof text,
            "ejecta: 1\ndimension: 3\ntime: {end: 100, cfl: 0.3}\n"

@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "validation_common.h"
 
 const ej_plugin_info *ej_plugin_rkpm_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
@@ -589,13 +590,9 @@ START_TEST(test_msnni_jitter_stability)
               "sets:\n  block:\n    method: rkpm\n    integration: msnni\n    material: m\n"
               "    shape: {box: {min: [0, 0, 0], max: [0.5, 0.5, 0.5]}}\n    spacing: 0.0625\n    jitter: 0.3\n"
               "    initial:\n");
-  for (int i = 0; i < 4; ++i) /* a smooth field sampled on 4 x 4 columns of 2 x 2 points */
-    for (int j = 0; j < 4; ++j) {
-      const double X = 0.125 * (i + 0.5), Y = 0.125 * (j + 0.5);
-      fprintf(fp, "      - {region: {box: {min: [%g, %g, -1], max: [%g, %g, 1]}}, velocity: [%.12g, %.12g, %.12g]}\n",
-              0.125 * i, 0.125 * j, 0.125 * (i + 1), 0.125 * (j + 1), 0.01 * sin(5 * X) * (1 + Y * Y),
-              0.01 * sin(7 * Y) * (1 + 2 * X * X), 0.01 * cos(3 * X) * cos(4 * Y));
-    }
+  char init[4096]; /* a smooth field sampled on 4 x 4 columns of 2 x 2 points */
+  smooth_block_initial(init, sizeof init, 0.01);
+  fputs(init, fp);
   fclose(fp);
   ej_registry *reg;
   ej_scene *sc;

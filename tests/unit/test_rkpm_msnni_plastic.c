@@ -34,16 +34,7 @@ static ej_err mp_vopen(vscene *c, const char *fmt, ...)
 static void mp_run_part(vscene *c, const char *mat, const char *stab, const char *part, int steps, double vscale)
 {
   char init[4096];
-  size_t o = 0;
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 4; ++j) {
-      const double X = 0.125 * (i + 0.5), Y = 0.125 * (j + 0.5);
-      o += (size_t)snprintf(init + o, sizeof init - o,
-                            "      - {region: {box: {min: [%g, %g, -1], max: [%g, %g, 1]}}, velocity: [%.12g, %.12g, "
-                            "%.12g]}\n",
-                            0.125 * i, 0.125 * j, 0.125 * (i + 1), 0.125 * (j + 1), vscale * sin(5 * X) * (1 + Y * Y),
-                            vscale * sin(7 * Y) * (1 + 2 * X * X), vscale * cos(3 * X) * cos(4 * Y));
-    }
+  smooth_block_initial(init, sizeof init, vscale);
   ej_err rc = mp_vopen(c,
                        "ejecta: 1\ndimension: 3\ntime: {end: 100, cfl: 0.3, max_steps: %d}\n"
                        "output: {file: out.h5, every: 100, fields: [v]}\n"

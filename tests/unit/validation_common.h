@@ -121,6 +121,26 @@ static inline void vrun_cleanup(const char *dir, const char *const *names, int n
   rmdir(dir);
 }
 
+/* ------------------------------------------------------------------ smooth block velocity */
+
+/* The `initial:` entries of the free 0.5 m block of the rkpm/tlpd stability and restart tests: a
+ * smooth nonuniform velocity field (scale vscale) sampled on 4 x 4 columns of the block, one
+ * YAML list item per column, written into buf. */
+static inline void smooth_block_initial(char *buf, size_t n, double vscale)
+{
+  size_t o = 0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) {
+      const double X = 0.125 * (i + 0.5), Y = 0.125 * (j + 0.5);
+      o += (size_t)snprintf(buf + o, o < n ? n - o : 0,
+                            "      - {region: {box: {min: [%g, %g, -1], max: [%g, %g, 1]}}, velocity: [%.12g, %.12g, "
+                            "%.12g]}\n",
+                            0.125 * i, 0.125 * j, 0.125 * (i + 1), 0.125 * (j + 1), vscale * sin(5 * X) * (1 + Y * Y),
+                            vscale * sin(7 * Y) * (1 + 2 * X * X), vscale * cos(3 * X) * cos(4 * Y));
+    }
+  ck_assert(o < n);
+}
+
 /* ------------------------------------------------------------------ Sod scene and solution */
 
 /* The Sod tube of validation/sod/check.py (sod_scene): one spacing on both sides, the jump
