@@ -15,6 +15,7 @@
 
 const ej_plugin_info *ej_plugin_rkpm_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
+const ej_plugin_info *ej_plugin_tlpd_info(void);
 
 #define RS_STEPS 24
 
@@ -50,6 +51,7 @@ static void rs_run(const char *dir, const char *out_name, int64_t steps, const c
   ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
   ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_rkpm_info()), EJ_OK);
   ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_elastic_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_tlpd_info()), EJ_OK);
   ej_err rc = ej_scene_load(scene, reg, &sc);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
@@ -113,12 +115,30 @@ START_TEST(test_rkpm_msnni_restart)
 }
 END_TEST
 
+/* tlpd: its family stable-step cache (dt per family, valid until a bond breaks), the flag that F
+ * of the previous step may be differenced (grad du = F_n+1 - F_n) and F itself must survive a
+ * restart; the critical stretch breaks bonds in the second half, so the cache is invalidated
+ * after the restart too. */
+START_TEST(test_tlpd_restart)
+{
+  rs_case("rstl", "    method: tlpd\n");
+}
+END_TEST
+
+START_TEST(test_tlpd_restart_breaking)
+{
+  rs_case("rstb", "    method: tlpd\n    failure: {critical_stretch: 0.004}\n");
+}
+END_TEST
+
 int main(void)
 {
   Suite *s = suite_create("restart_methods");
   TCase *tc = tcase_create("bitwise");
   tcase_set_timeout(tc, 120);
   tcase_add_test(tc, test_rkpm_msnni_restart);
+  tcase_add_test(tc, test_tlpd_restart);
+  tcase_add_test(tc, test_tlpd_restart_breaking);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

@@ -220,7 +220,6 @@ typedef struct tlpd_state {
   ej_real *vpred;      /* [3n] the predicted velocity the rates were evaluated with (pass 0) */
   uint8_t *vp_ok;      /* [n] vpred and aint belong to this step */
   uint8_t *row_intact; /* [n] no broken bond in the row (the bond loops skip the flag test) */
-  uint8_t *fprev_ok;   /* [n] F holds F_n of the previous step over the same bonds (so grad du = F - F_n) */
   uint8_t *mixed;      /* [n] the row has a bond to a particle of another vol0 (variable spacing) */
   uint8_t *full;       /* [n] the row's family fills its horizon ball (the neighbours' cells, each of its own
                         * size, cover >= 0.85 of the ball's volume: not at a free surface) */
@@ -236,7 +235,7 @@ typedef struct tlpd_state {
   /* stable step of the current family (tlpd_stable_dt): per row h_self = |K^-1 m1| and
    * H = sum_l |g_l| + h_self, g_l = w V_l K^-1 X_l (reference quantities, change only when
    * bonds break); cached 2/sqrt(lambda_i), the time it was computed, the last refresh time */
-  ej_real *hself, *hsum, *dt_fam, *dt_fam_t;
+  ej_real *hself, *hsum;
   _Atomic double t_refresh;
   /* inversion: point_failure: particles point-failed at det F <= 0 */
   uint8_t *pfail;      /* [n] */
@@ -267,8 +266,8 @@ static ej_err tlpd_declare(const void *config, int dim, ej_decl *d)
   const ej_field_decl fields[] = {
       {.name = "stress", .kind = EJ_SYM6, .flags = EJ_FIELD_OUTPUT | EJ_FIELD_NO_GHOST, .unit = "Pa",
        .doc = "Cauchy stress."},
-      {.name = "F", .kind = EJ_TENSOR9, .flags = EJ_FIELD_SCRATCH | (cfg->output_F ? EJ_FIELD_OUTPUT : 0u), .unit = "1",
-       .doc = "Nonlocal deformation gradient N K^-1."},
+      {.name = "F", .kind = EJ_TENSOR9, .flags = cfg->output_F ? EJ_FIELD_OUTPUT : 0u, .unit = "1",
+       .doc = "Nonlocal deformation gradient N K^-1 (checkpointed: the next step differences it)."},
       {.name = "PK", .kind = EJ_TENSOR9, .flags = EJ_FIELD_SCRATCH, .unit = "Pa/m^2",
        .doc = "First Piola-Kirchhoff stress times K^-1 (force state per bond vector)."},
       {.name = "K_inv", .kind = EJ_TENSOR9, .flags = EJ_FIELD_SCRATCH, .unit = "1/m^5",
@@ -295,6 +294,16 @@ static ej_err tlpd_declare(const void *config, int dim, ej_decl *d)
        .doc = "Sound speed from the material."},
       {.name = "pd_hsum", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "1/m",
        .doc = "Sum of the norms of the row's gradient weights |w V K^-1 X| (stable step)."},
+      /* state that a restart must find as the run left it (checkpointed, not scratch), so that a
+       * restarted run continues bitwise (tests/unit/test_restart_methods.c) */
+      {.name = "pd_fprev", .kind = EJ_INT, .flags = EJ_FIELD_NO_GHOST, .unit = "1",
+       .doc = "1 if F holds F_n of the previous step over the same bonds (grad du = F - F_n)."},
+      {.name = "pd_dt_fam", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "s",
+       .doc = "Cached stable step of the particle's family (0: not computed)."},
+      {.name = "pd_dt_fam_t", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "s",
+       .doc = "Time at which pd_dt_fam was computed (valid while no bond has broken since)."},
+      {.name = "pd_t_break", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "s",
+       .doc = "Time at which a bond of the particle's row last broke (0: never)."},
   };
   for (size_t k = 0; k < sizeof fields / sizeof fields[0]; ++k) EJ_TRY(ej_decl_field(d, &fields[k]));
   if (cfg->force_form == TLPD_FORM_DIFFERENCE) {
@@ -313,9 +322,9 @@ static void tlpd_free_arrays(tlpd_state *s)
   if (!s->wb_alias) ej_free(s->wb);
   ej_free(s->wa), ej_free(s->Kinv), ej_free(s->d6), ej_free(s->wp);
   ej_free(s->p_eos), ej_free(s->c_eos), ej_free(s->area), ej_free(s->row_ready), ej_free(s->n_fallback);
-  ej_free(s->fprev_ok), ej_free(s->m1), ej_free(s->row_intact), ej_free(s->aint), ej_free(s->vpred), ej_free(s->vp_ok), ej_free(s->dxp), ej_free(s->nbroken);
+  ej_free(s->m1), ej_free(s->row_intact), ej_free(s->aint), ej_free(s->vpred), ej_free(s->vp_ok), ej_free(s->dxp), ej_free(s->nbroken);
   ej_free(s->mixed), ej_free(s->full), ej_free(s->gf_state), ej_free(s->egf);
-  ej_free(s->hself), ej_free(s->hsum), ej_free(s->dt_fam), ej_free(s->dt_fam_t);
+  ej_free(s->hself), ej_free(s->hsum);
   ej_free(s->jmax), ej_free(s->notok);
   ej_free(s->pfail), ej_free(s->kc), ej_free(s->ncont);
   ej_free(s->c_cellof), ej_free(s->c_order), ej_free(s->c_start);
@@ -473,7 +482,6 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
   s->wp = ej_calloc(nn, sizeof *s->wp);
   s->area = ej_calloc(nn, sizeof *s->area);
   s->row_ready = ej_calloc(nn, 1);
-  s->fprev_ok = ej_calloc(nn, 1);
   s->row_intact = ej_calloc(nn, 1);
   s->aint = ej_calloc(3 * nn, sizeof *s->aint);
   s->vpred = ej_calloc(3 * nn, sizeof *s->vpred);
@@ -490,11 +498,15 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
   s->notok = ej_calloc(nn, 1);
   s->hself = ej_calloc(nn, sizeof *s->hself);
   s->hsum = ej_calloc(nn, sizeof *s->hsum);
-  s->dt_fam = ej_calloc(nn, sizeof *s->dt_fam);
-  s->dt_fam_t = ej_malloc(nn * sizeof *s->dt_fam_t);
-  if (s->dt_fam_t)
-    for (size_t i = 0; i < nn; ++i) s->dt_fam_t[i] = -INFINITY;
-  atomic_store(&s->t_refresh, -INFINITY);
+  {
+    /* the time of the last bond break: -inf in a fresh run, the checkpoint's on a restart (bonds
+     * break only in post_step, at t > 0) */
+    const ej_real *tbrk = ej_set_field(set, "pd_t_break");
+    ej_real tr = -INFINITY;
+    for (ej_idx i = 0; i < n; ++i)
+      if (tbrk[i] > 0) tr = fmax(tr, tbrk[i]);
+    atomic_store(&s->t_refresh, tr);
+  }
   if (s->eos) {
     s->p_eos = ej_calloc(nn, sizeof *s->p_eos);
     s->c_eos = ej_calloc(nn, sizeof *s->c_eos);
@@ -516,15 +528,15 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->c_start = ej_malloc((s->c_ncap + 1) * sizeof *s->c_start);
     c_ok = s->kc && s->ncont && s->c_cellof && s->c_order && s->c_start && (nall == 0 || s->c_dxmin > 0);
   }
-  if (!s->wa || !s->wb || !s->Kinv || !s->d6 || !s->wp || !s->area || !s->row_ready || !s->n_fallback || !s->fprev_ok || !s->row_intact || !s->aint || !s->vpred || !s->vp_ok || !s->dxp || !s->nbroken ||
-      !s->m1 || !s->mixed || !s->full || !s->gf_state || !s->egf || !s->hself || !s->hsum || !s->dt_fam || !s->dt_fam_t ||
+  if (!s->wa || !s->wb || !s->Kinv || !s->d6 || !s->wp || !s->area || !s->row_ready || !s->n_fallback || !s->row_intact || !s->aint || !s->vpred || !s->vp_ok || !s->dxp || !s->nbroken ||
+      !s->m1 || !s->mixed || !s->full || !s->gf_state || !s->egf || !s->hself || !s->hsum ||
       !s->jmax || !s->notok || (s->eos && (!s->p_eos || !s->c_eos)) || !s->pfail || !c_ok) {
     tlpd_free_arrays(s);
     s->wa = s->wb = NULL;
     s->Kinv = s->d6 = s->wp = s->area = s->p_eos = s->c_eos = NULL;
-    s->row_ready = s->fprev_ok = s->row_intact = s->vp_ok = NULL;
+    s->row_ready = s->row_intact = s->vp_ok = NULL;
     s->aint = s->vpred = NULL;
-    s->m1 = s->hself = s->hsum = s->dt_fam = s->dt_fam_t = s->dxp = NULL;
+    s->m1 = s->hself = s->hsum = s->dxp = NULL;
     s->nbroken = NULL;
     s->n_fallback = NULL;
     s->mixed = s->full = s->gf_state = NULL;
@@ -575,7 +587,7 @@ static void tlpd_refresh_row_(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_
   }
   memcpy(s->m1 + 3 * i, M1, sizeof M1);
   s->gf_state[i] = 0; /* ghost-force vector recomputed at the next force pass */
-  s->fprev_ok[i] = 0; /* the bond set changed: F of the previous step is not N_n K^-1 */
+  ej_set_field_int(set, "pd_fprev")[i] = 0; /* the bond set changed: F of the previous step is not N_n K^-1 */
   damage[i] = vall > 0 ? 1 - vint / vall : 1;
   ej_real *Ki = s->Kinv + 9 * i;
   ej_m3_identity(Ki);
@@ -684,7 +696,12 @@ static void tlpd_init_row(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej_idx 
     for (int k = 0; k < 3; ++k) in = in && x0[3 * i + k] >= t->lo[k] && x0[3 * i + k] <= t->hi[k];
     if (in) s->area[i] = vol0[i] / dxi;
   }
+  /* the first row set-up is not a change of the bond set: on a restart the checkpoint's F and
+   * pd_fprev stay valid (in a fresh run pd_fprev is still 0 here) */
+  int32_t *fprev = ej_set_field_int(set, "pd_fprev");
+  const int32_t keep = fprev[i];
   tlpd_refresh_row(s, set, nbr, i);
+  fprev[i] = keep;
   s->row_ready[i] = 1;
 }
 
@@ -703,11 +720,11 @@ static ej_err tlpd_bad(const tlpd_state *s, const ej_set *set, ej_idx i, const c
  * TLPD_DETACHED: F = I, P = 0, no hourglass force; its neighbours' force states on it still act,
  * so momentum stays exact) and flagged `failed` after the material batch, so that post_step breaks
  * every bond at both ends (the point failure of 000 section 5, symmetric). Counted in pfail. */
-static void tlpd_point_fail(tlpd_state *s, int32_t *status, ej_idx i)
+static void tlpd_point_fail(tlpd_state *s, int32_t *status, int32_t *fprev, ej_idx i)
 {
   status[i] = TLPD_DETACHED;
   s->pfail[i] = 1;
-  s->fprev_ok[i] = 0;
+  fprev[i] = 0;
   if (!s->notok[i]) {
     s->notok[i] = 1;
     atomic_fetch_add_explicit(&s->n_notok, 1, memory_order_relaxed);
@@ -725,6 +742,7 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
   ej_real *restrict e_dot = ej_set_field(set, "e_dot"), *restrict c = ej_set_field(set, "c");
   ej_real *restrict w_pl = ej_set_field(set, "w_plastic");
   int32_t *restrict status = ej_set_field_int(set, "pd_status"), *restrict failed = ej_set_field_int(set, "failed");
+  int32_t *restrict fprev = ej_set_field_int(set, "pd_fprev");
   const uint8_t *restrict flags = ej_set_bond_flags(set);
   ej_real *restrict w_dot = ej_set_field(set, "w_hg_dot"), *restrict G = ej_set_field(set, "G_pk");
   ej_real *restrict Kinv_f = ej_set_field(set, "K_inv");
@@ -755,7 +773,7 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
        * the x of that step's force evaluation), so grad_X du = F_n+1 - F_n (Eq 80) without a
        * third bond sum. The flag is set only by post_step (x_prev := x after this pass), and
        * cleared by a change of the bond set and at a restart; otherwise the sum is taken. */
-      const bool prev = s->fprev_ok[i];
+      const bool prev = fprev[i] != 0;
       if (prev) {
         /* 4-wide (GCC/Clang vector extension, lane 3 unused): N += Y (x) wX, Nv += V (x) wX;
          * the same operations per element as the scalar form (7 vector accumulators instead
@@ -828,7 +846,7 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
       else
         ej_m3_mul(dF, Nd, Ki);
       ej_m3_mul(Fd, Nv, Ki);
-      s->fprev_ok[i] = 0; /* set again by post_step, when x_prev becomes this x */
+      fprev[i] = 0; /* set again by post_step, when x_prev becomes this x */
       for (int a = dim; a < 3; ++a) Fi[4 * a] = 1, dF[4 * a] = 0, Fd[4 * a] = 0;
       /* 000 Eqs 79, 88-90: h = grad_X du F_n+1/2^-1 */
       ej_real Fh[9], Fhi[9], h[9];
@@ -883,7 +901,7 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
       }
       continue;
     inverted:
-      tlpd_point_fail(s, status, i);
+      tlpd_point_fail(s, status, fprev, i);
     } /* not a correspondence point (fallback, detached, or point-failed just now) */
     ej_m3_identity(Fi);
     for (int k = 0; k < 6; ++k) di[k] = 0;
@@ -913,7 +931,7 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
     if (status[i] == TLPD_OK && pfail_on) {
       ej_real Ft[9];
       if (ej_m3_inverse(Ft, F + 9 * i) == 0) {
-        tlpd_point_fail(s, status, i);
+        tlpd_point_fail(s, status, fprev, i);
         failed[i] = 1;
         any_failed = true;
         ej_m3_identity(F + 9 * i);
@@ -1417,8 +1435,10 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
       }
   }
   /* F (pass 0 of this step) is now N(x_prev) K^-1 for the rows that have one */
-  if (atomic_load_explicit(&s->ready, memory_order_acquire))
-    for (ej_idx i = r.begin; i < r.end; ++i) s->fprev_ok[i] = status[i] == TLPD_OK;
+  if (atomic_load_explicit(&s->ready, memory_order_acquire)) {
+    int32_t *fprev = ej_set_field_int(set, "pd_fprev");
+    for (ej_idx i = r.begin; i < r.end; ++i) fprev[i] = status[i] == TLPD_OK;
+  }
   const ej_real s0 = s->cfg.failure.critical_stretch;
   const bool check_fail = atomic_load_explicit(&s->any_failed, memory_order_relaxed) != 0;
   for (ej_idx i = r.begin; i < r.end; ++i)
@@ -1428,6 +1448,7 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
    * material's flag) loses every bond, and so does the bond's other end, so that the pair
    * stays symmetric (both rows take the same decision from the same |Y| and |X|). */
   const ej_nbr nbr = {.n_rows = s->n, .off = s->off, .idx = s->idx};
+  ej_real *tbrk = ej_set_field(set, "pd_t_break");
   for (ej_idx i = r.begin; i < r.end; ++i) {
     bool dirty = false;
     for (ej_off k = s->off[i]; k < s->off[i + 1]; ++k) {
@@ -1449,6 +1470,7 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
     if (dirty) {
       tlpd_refresh_row(s, set, &nbr, i);
       atomic_store_explicit(&s->t_refresh, ej_set_time(set), memory_order_relaxed);
+      tbrk[i] = ej_set_time(set);
     }
   }
   return EJ_OK;
@@ -1533,13 +1555,16 @@ static ej_err tlpd_stable_dt(void *state, const ej_set *set, ej_range r, ej_real
     if (c[i] > 0) best = fmin(best, (ready && s->row_ready[i] ? s->dxp[i] : tlpd_dx(s, vol0[i])) / c[i]);
   if (ready) {
     const ej_real t = ej_set_time(set), tr = atomic_load_explicit(&s->t_refresh, memory_order_relaxed);
+    ej_real *dt_fam = ej_set_field(set, "pd_dt_fam"), *dt_fam_t = ej_set_field(set, "pd_dt_fam_t");
     for (ej_idx i = r.begin; i < r.end; ++i) {
       if (!s->row_ready[i]) continue;
-      if (!(s->dt_fam_t[i] > tr)) {
-        s->dt_fam[i] = tlpd_family_dt(s, set, i);
-        s->dt_fam_t[i] = t;
+      /* recomputed unless computed after the last bond break (a restart restores dt_fam, its time
+       * and, through pd_t_break, t_refresh: the same decisions) */
+      if (!(dt_fam[i] > 0) || !(dt_fam_t[i] > tr)) {
+        dt_fam[i] = tlpd_family_dt(s, set, i);
+        dt_fam_t[i] = t;
       }
-      best = fmin(best, s->dt_fam[i]);
+      best = fmin(best, dt_fam[i]);
     }
   }
   /* contact springs of the last force pass (Gershgorin, as the bond springs of tlpd_family_dt):
