@@ -287,7 +287,9 @@ typedef struct ej_ops_head {
 
 /* ================================================================== particle sets */
 
-#define EJ_MAX_FIELDS 64
+#define EJ_MAX_FIELDS 64 /* ghost_dirty and the pass masks are uint64_t */
+#define EJ_MAX_PASS_MASKS 16
+#define EJ_ALL_FIELDS (~UINT64_C(0))
 #define EJ_MAX_HIST 32
 #define EJ_FIELD_NAME_LEN 32
 
@@ -342,6 +344,15 @@ struct ej_set {
   uint8_t *ghost_xf;
   /* boundary-condition masks: per particle bit k set if bcs[k] applies (k < 32) */
   uint32_t *bc_mask;
+  /* Ghost refresh by need (bit k = field k, EJ_MAX_FIELDS <= 64): fields written since the last
+   * refresh; what each method pass and post_step writes (ej_method_ops.pass_writes; all bits when
+   * the method does not say, or past EJ_MAX_PASS_MASKS passes); fields the integrator writes. */
+  uint64_t ghost_dirty;
+  uint64_t pass_mask[EJ_MAX_PASS_MASKS + 1]; /* [0]: post_step, [1 + k]: pass k */
+  uint64_t foreign_mask;                     /* fields the method did not declare (EOS, history) */
+  uint64_t step_mask;                        /* x, v, a and the integrated fields, rates, halves */
+  char *perm_tmp;                            /* ej_set_permute's scratch, grown with cap */
+  size_t perm_tmp_size;
 };
 
 struct ej_model {
@@ -373,6 +384,12 @@ ej_err ej_set_reserve(ej_set *s, ej_idx cap);
 ej_err ej_set_permute(ej_set *s, const ej_idx *perm);
 /* Copies every (ghosted) field from sources to ghosts, applying transforms. */
 void ej_set_update_ghosts(ej_set *s, const ej_xform *xf);
+/* Copies the ghosted fields in s->ghost_dirty only (then clears it): equal to a full refresh
+ * when every write since the last refresh was marked in ghost_dirty. One parallel region. */
+void ej_set_refresh_ghosts(ej_set *s, const ej_xform *xf);
+/* Checks that every ghosted field of every ghost equals its full refresh (bitwise); returns the
+ * first stale field's index (and its ghost in *ghost), or -1. Serial (tests, EJECTA_GHOST_CHECK). */
+int ej_set_ghosts_stale(const ej_set *s, const ej_xform *xf, ej_idx *ghost);
 
 /* ================================================================== neighbours (neighbours.c) */
 
@@ -477,6 +494,8 @@ struct ej_sim {
   ej_idx chunk;
   ej_real *chunk_scratch; /* per-chunk partial sums */
   int64_t chunk_scratch_cap;
+  /* EJECTA_GHOST_CHECK=1: after each partial ghost refresh, compare with a full one */
+  bool ghost_check;
   /* EJECTA_PROFILE=1: wall time of the step loop and of its parallel regions */
   bool profile;
   double prof_loop, prof_par, prof_out;

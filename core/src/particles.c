@@ -3,6 +3,10 @@
  * ghost images (symmetry, periodic) after them. */
 #include <string.h>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 #include "core_impl.h"
 
 const char *ej_field_kind_name(ej_field_kind k)
@@ -28,6 +32,9 @@ ej_err ej_set_create(const char *name, int index, int dim, ej_set **out)
   s->index = index;
   s->dim = dim;
   s->f_x0 = -1;
+  /* until the simulation knows what the method writes: every field, every time */
+  s->ghost_dirty = s->step_mask = EJ_ALL_FIELDS;
+  for (int k = 0; k <= EJ_MAX_PASS_MASKS; ++k) s->pass_mask[k] = EJ_ALL_FIELDS;
   ej_err rc;
   static const ej_field_decl base[] = {
       {.name = "x", .kind = EJ_VEC3, .flags = EJ_FIELD_OUTPUT | EJ_FIELD_POSITION, .unit = "m", .doc = "position"},
@@ -67,6 +74,7 @@ void ej_set_destroy(ej_set *s)
   ej_free(s->ghost_xf);
   ej_free(s->bc_mask);
   ej_free(s->bond_flags);
+  ej_free(s->perm_tmp);
   ej_free(s->name);
   ej_free(s);
 }
@@ -174,6 +182,8 @@ ej_err ej_set_reserve(ej_set *s, ej_idx cap)
   return EJ_OK;
 }
 
+/* Each thread gathers (then copies back) its own static range of particles, field by field,
+ * in one parallel region; the scratch is kept with the set and only grows (at a rebuild). */
 ej_err ej_set_permute(ej_set *s, const ej_idx *perm)
 {
   size_t maxw = sizeof(uint32_t);
@@ -181,19 +191,48 @@ ej_err ej_set_permute(ej_set *s, const ej_idx *perm)
     size_t w = (size_t)s->fields[k].ncomp * ej_kind_bytes(s->fields[k].kind);
     if (w > maxw) maxw = w;
   }
-  char *tmp = ej_malloc((size_t)s->n * maxw);
-  EJ_ENSURE(tmp, EJ_ERR_MEM, "out of memory reordering set '%s'", s->name);
-  for (int k = 0; k < s->n_fields; ++k) {
-    ej_field *f = &s->fields[k];
-    size_t w = (size_t)f->ncomp * ej_kind_bytes(f->kind);
-    char *d = f->data;
-    for (ej_idx i = 0; i < s->n; ++i) memcpy(tmp + (size_t)i * w, d + (size_t)perm[i] * w, w);
-    memcpy(d, tmp, (size_t)s->n * w);
+  const size_t need = (size_t)s->n * maxw;
+  if (need > s->perm_tmp_size) {
+    char *t = ej_realloc(s->perm_tmp, need);
+    EJ_ENSURE(t, EJ_ERR_MEM, "out of memory reordering set '%s'", s->name);
+    s->perm_tmp = t;
+    s->perm_tmp_size = need;
   }
-  uint32_t *m = (uint32_t *)tmp;
-  for (ej_idx i = 0; i < s->n; ++i) m[i] = s->bc_mask[perm[i]];
-  memcpy(s->bc_mask, m, (size_t)s->n * sizeof *m);
-  ej_free(tmp);
+  char *tmp = s->perm_tmp;
+  const ej_idx n = s->n;
+#pragma omp parallel if (n > 4096)
+  {
+    for (int k = 0; k <= s->n_fields; ++k) {
+      /* k == n_fields: the boundary-condition masks */
+      char *d = k < s->n_fields ? (char *)s->fields[k].data : (char *)s->bc_mask;
+      const size_t w = k < s->n_fields ? (size_t)s->fields[k].ncomp * ej_kind_bytes(s->fields[k].kind) : sizeof(uint32_t);
+      /* fixed-size copies for the usual widths (int, scalar, vec3, sym6, tensor9): inlined */
+#define EJ_PERM_GATHER(W)                                                                               \
+  for (ej_idx i = i0; i < i1; ++i) memcpy(tt + (size_t)(i - i0) * (W), d + (size_t)perm[i] * (W), (W))
+#ifdef _OPENMP
+      const int64_t nt = omp_get_num_threads(), t = omp_get_thread_num();
+#else
+      const int64_t nt = 1, t = 0;
+#endif
+      const ej_idx i0 = (ej_idx)((int64_t)n * t / nt), i1 = (ej_idx)((int64_t)n * (t + 1) / nt);
+      char *tt = tmp + (size_t)i0 * maxw; /* this thread's part of the scratch, whatever the width */
+      switch (w) {
+      case 4: EJ_PERM_GATHER(4); break;
+      case 8: EJ_PERM_GATHER(8); break;
+      case 24: EJ_PERM_GATHER(24); break;
+      case 48: EJ_PERM_GATHER(48); break;
+      case 72: EJ_PERM_GATHER(72); break;
+      default: EJ_PERM_GATHER(w); break;
+      }
+#undef EJ_PERM_GATHER
+      /* every gather of this field reads d: wait for all before overwriting it; then each thread
+       * copies back the range it gathered (its scratch part [i0 maxw, i1 maxw) is its own, so the
+       * next field's gather needs no barrier) */
+#pragma omp barrier
+      memcpy(d + (size_t)i0 * w, tt, (size_t)(i1 - i0) * w);
+    }
+  }
+  s->ghost_dirty = EJ_ALL_FIELDS;
   return EJ_OK;
 }
 
@@ -230,40 +269,96 @@ static inline void ej_full_to_sym(const ej_real *A, ej_real *s)
   s[0] = A[0], s[1] = A[4], s[2] = A[8], s[3] = A[1], s[4] = A[5], s[5] = A[2];
 }
 
+/* Ghost g's value of field f, as a full refresh writes it: the source's value through the ghost's
+ * transform (vectors rotated, points moved, tensors Q A Q^T). */
+static inline void ej_ghost_value(const ej_set *s, const ej_field *f, const ej_xform *xf, ej_idx g, void *out)
+{
+  const ej_idx src = s->ghost_src[g];
+  if (f->kind == EJ_INT) {
+    ((int32_t *)out)[0] = ((const int32_t *)f->data)[src];
+    return;
+  }
+  const int nc = f->ncomp;
+  const ej_real *sv = (const ej_real *)f->data + (size_t)src * nc;
+  ej_real *dst = out;
+  const ej_xform *t = &xf[s->ghost_xf[g]];
+  if (nc == 1) {
+    dst[0] = sv[0];
+  } else if (nc == 3) {
+    ej_xf_vec(t, sv, dst, (f->flags & EJ_FIELD_POSITION) != 0);
+  } else if (nc == 6) {
+    ej_real A[9], B[9];
+    ej_sym_to_full(sv, A);
+    ej_xf_mat(t->Q, A, B);
+    ej_full_to_sym(B, dst);
+  } else {
+    ej_xf_mat(t->Q, sv, dst);
+  }
+}
+
+/* Ghosts [g0, g1) of field f. */
+static void ej_ghost_copy(const ej_set *s, const ej_field *f, const ej_xform *xf, ej_idx g0, ej_idx g1)
+{
+  const ej_idx n = s->n;
+  if (f->kind == EJ_INT) {
+    int32_t *d = f->data;
+    for (ej_idx g = g0; g < g1; ++g) d[n + g] = d[s->ghost_src[g]];
+    return;
+  }
+  ej_real *d = f->data;
+  const int nc = f->ncomp;
+  if (nc == 1) {
+    for (ej_idx g = g0; g < g1; ++g) d[n + g] = d[s->ghost_src[g]];
+    return;
+  }
+  for (ej_idx g = g0; g < g1; ++g) ej_ghost_value(s, f, xf, g, d + (size_t)(n + g) * nc);
+}
+
+void ej_set_refresh_ghosts(ej_set *s, const ej_xform *xf)
+{
+  const uint64_t dirty = s->ghost_dirty;
+  s->ghost_dirty = 0;
+  const ej_idx ng = s->n_ghost;
+  if (!ng || !dirty) return;
+  int list[EJ_MAX_FIELDS], nl = 0;
+  for (int k = 0; k < s->n_fields; ++k)
+    if (((dirty >> k) & 1u) && !(s->fields[k].flags & EJ_FIELD_NO_GHOST)) list[nl++] = k;
+  if (!nl) return;
+  /* one region: each thread copies every listed field of its own contiguous range of ghosts */
+#pragma omp parallel if (ng > 4096)
+  {
+#ifdef _OPENMP
+    const int64_t nt = omp_get_num_threads(), t = omp_get_thread_num();
+#else
+    const int64_t nt = 1, t = 0;
+#endif
+    const ej_idx g0 = (ej_idx)((int64_t)ng * t / nt), g1 = (ej_idx)((int64_t)ng * (t + 1) / nt);
+    for (int q = 0; q < nl; ++q) ej_ghost_copy(s, &s->fields[list[q]], xf, g0, g1);
+  }
+}
+
 void ej_set_update_ghosts(ej_set *s, const ej_xform *xf)
 {
-  const ej_idx n = s->n, ng = s->n_ghost;
-  if (!ng) return;
+  s->ghost_dirty = EJ_ALL_FIELDS;
+  ej_set_refresh_ghosts(s, xf);
+}
+
+int ej_set_ghosts_stale(const ej_set *s, const ej_xform *xf, ej_idx *ghost)
+{
   for (int k = 0; k < s->n_fields; ++k) {
-    ej_field *f = &s->fields[k];
+    const ej_field *f = &s->fields[k];
     if (f->flags & EJ_FIELD_NO_GHOST) continue;
-    if (f->kind == EJ_INT) {
-      int32_t *d = f->data;
-      for (ej_idx g = 0; g < ng; ++g) d[n + g] = d[s->ghost_src[g]];
-      continue;
-    }
-    ej_real *d = f->data;
-    const int nc = f->ncomp;
-    const bool point = (f->flags & EJ_FIELD_POSITION) != 0;
-#pragma omp parallel for schedule(static) if (ng > 4096)
-    for (ej_idx g = 0; g < ng; ++g) {
-      const ej_real *src = d + (size_t)s->ghost_src[g] * nc;
-      ej_real *dst = d + (size_t)(n + g) * nc;
-      const ej_xform *t = &xf[s->ghost_xf[g]];
-      if (nc == 1) {
-        dst[0] = src[0];
-      } else if (nc == 3) {
-        ej_xf_vec(t, src, dst, point);
-      } else if (nc == 6) {
-        ej_real A[9], B[9];
-        ej_sym_to_full(src, A);
-        ej_xf_mat(t->Q, A, B);
-        ej_full_to_sym(B, dst);
-      } else {
-        ej_xf_mat(t->Q, src, dst);
+    const size_t w = (size_t)f->ncomp * ej_kind_bytes(f->kind);
+    for (ej_idx g = 0; g < s->n_ghost; ++g) {
+      ej_real want[9];
+      ej_ghost_value(s, f, xf, g, want);
+      if (memcmp(want, (const char *)f->data + (size_t)(s->n + g) * w, w) != 0) {
+        if (ghost) *ghost = g;
+        return k;
       }
     }
   }
+  return -1;
 }
 
 /* ------------------------------------------------------------------ plugin accessors */

@@ -27,9 +27,16 @@
 struct ej_decl {
   ej_set *set;
   ej_err rc;
+  uint64_t touched; /* the fields this declare op named (bit k = field k) */
 };
 
-ej_err ej_decl_field(ej_decl *d, const ej_field_decl *f) { return ej_set_add_field(d->set, f, NULL); }
+ej_err ej_decl_field(ej_decl *d, const ej_field_decl *f)
+{
+  int k = -1;
+  EJ_TRY(ej_set_add_field(d->set, f, &k));
+  if (k >= 0 && k < 64) d->touched |= UINT64_C(1) << k;
+  return EJ_OK;
+}
 
 ej_err ej_decl_neighbours(ej_decl *d, ej_nbr_config config)
 {
@@ -419,6 +426,59 @@ out_free:
   return rc;
 }
 
+/* What the integrator writes (step_mask) and what each method pass and post_step writes
+ * (ej_method_ops.pass_writes, ABI 1.3), for the ghost refresh by need (ej_set_refresh_ghosts). */
+static ej_err ej_set_write_masks(ej_set *s)
+{
+  s->step_mask = (UINT64_C(1) << s->f_x) | (UINT64_C(1) << s->f_v) | (UINT64_C(1) << s->f_a);
+  for (int k = 0; k < s->n_fields; ++k)
+    if (s->fields[k].rate >= 0 || s->fields[k].rate_of >= 0) s->step_mask |= UINT64_C(1) << k;
+  const int bcp[2] = {ej_set_find_field(s, "bc_power"), ej_set_find_field(s, "bc_power_old")};
+  for (int k = 0; k < 2; ++k)
+    if (bcp[k] >= 0) s->step_mask |= UINT64_C(1) << bcp[k];
+  const ej_method_ops *m = s->mops;
+  const bool has = EJ_HAS_OP(m, ej_method_ops, pass_writes) && m->pass_writes;
+  for (int q = 0; q <= EJ_MAX_PASS_MASKS; ++q) {
+    const int pass = q - 1; /* EJ_PASS_POST_STEP, then 0 .. */
+    s->pass_mask[q] = EJ_ALL_FIELDS;
+    if (!has || pass >= m->n_passes) continue;
+    const char *names[EJ_MAX_FIELDS];
+    const int nw = m->pass_writes(s->mstate, pass, names, EJ_MAX_FIELDS);
+    if (nw < 0) continue;
+    EJ_ENSURE(nw <= EJ_MAX_FIELDS, EJ_ERR_PLUGIN, "method '%s': pass_writes returned %d names (max %d)", m->name, nw,
+              EJ_MAX_FIELDS);
+    uint64_t mask = 0;
+    for (int k = 0; k < nw; ++k) {
+      const int f = names[k] ? ej_set_find_field(s, names[k]) : -1;
+      EJ_ENSURE(f >= 0, EJ_ERR_PLUGIN, "method '%s': pass %d writes field '%s', which set '%s' does not have", m->name,
+                pass, names[k] ? names[k] : "(null)", s->name);
+      mask |= UINT64_C(1) << f;
+    }
+    s->pass_mask[q] = mask | s->foreign_mask;
+  }
+  return EJ_OK;
+}
+
+/* Ghost refresh before a pass: only the fields written since the last one; EJECTA_GHOST_CHECK
+ * compares the result with a full refresh. */
+static ej_err ej_ghosts_refresh(ej_sim *sim, ej_set *s)
+{
+  ej_set_refresh_ghosts(s, sim->xforms);
+  if (!sim->ghost_check) return EJ_OK;
+  ej_idx g = -1;
+  const int k = ej_set_ghosts_stale(s, sim->xforms, &g);
+  EJ_ENSURE(k < 0, EJ_ERR_INTERNAL,
+            "ghost refresh: field '%s' of set '%s' is stale at ghost %d (written but not declared by a pass_writes?)",
+            s->fields[k].name, s->name, (int)g);
+  return EJ_OK;
+}
+
+/* After pass (EJ_PASS_POST_STEP for post_step) of s's method. */
+static void ej_mark_pass(ej_set *s, int pass)
+{
+  s->ghost_dirty |= pass + 1 <= EJ_MAX_PASS_MASKS ? s->pass_mask[pass + 1] : EJ_ALL_FIELDS;
+}
+
 static ej_err ej_sets_create(ej_sim *sim)
 {
   const ej_scene *sc = sim->scene;
@@ -439,8 +499,10 @@ static ej_err ej_sets_create(ej_sim *sim)
     const ej_eos *eos = s->model->eos;
     if (eos && EJ_HAS_OP(eos->ops, ej_eos_ops, declare)) {
       const ej_nbr_config keep = s->nbr_config; /* an EOS declares fields, never neighbours */
-      EJ_TRY(eos->ops->declare(eos->config, sc->dimension, &d));
+      ej_decl de = {.set = s};
+      EJ_TRY(eos->ops->declare(eos->config, sc->dimension, &de));
       s->nbr_config = keep;
+      s->foreign_mask |= de.touched; /* written by the EOS inside any method pass */
     }
     /* Prescribed velocities do work: its power is kept per particle (now and a step ago) for
      * the trapezoidal external work of the energy budget; checkpointed like any field. */
@@ -461,6 +523,7 @@ static ej_err ej_sets_create(ej_sim *sim)
                                 .unit = "1", .doc = "history variable of the strength model"};
       EJ_TRY(ej_set_add_field(s, &hd, &s->f_hist[k]));
       s->n_hist = k + 1;
+      s->foreign_mask |= UINT64_C(1) << s->f_hist[k]; /* written by the strength model */
     }
     if (s->nbr_config == EJ_NBR_REFERENCE) {
       static const ej_field_decl x0 = {.name = "x0", .kind = EJ_VEC3, .flags = EJ_FIELD_POSITION, .unit = "m",
@@ -482,6 +545,7 @@ static ej_err ej_sets_create(ej_sim *sim)
     if (eos && EJ_HAS_OP(eos->ops, ej_eos_ops, setup)) EJ_TRY(eos->ops->setup(eos->state, s));
     EJ_TRY(ej_located(s->mops->create(s->mconfig, s, s->model, &s->mstate), &ss->loc));
     if (s->nbr_config != EJ_NBR_NONE) EJ_TRY(ej_nbrlist_create(&s->list));
+    EJ_TRY(ej_set_write_masks(s));
   }
   return EJ_OK;
 }
@@ -539,9 +603,12 @@ static void ej_xform_compose(const ej_xform *a, const ej_xform *b, ej_xform *c)
   }
 }
 
-static ej_err ej_ghost_push(ej_sim *sim, ej_set *s, ej_idx src, const ej_xform *t)
+/* memo: the index of t for this (plane or shift, source transform), -1 until first found; the
+ * composed transform depends on these only, so the index found is the same as a fresh search's */
+static ej_err ej_ghost_push(ej_sim *sim, ej_set *s, ej_idx src, const ej_xform *t, int16_t *memo)
 {
-  int k = ej_xform_index(sim, t);
+  int k = *memo >= 0 ? *memo : ej_xform_index(sim, t);
+  *memo = (int16_t)k;
   EJ_ENSURE(k >= 0, EJ_ERR_UNSUPPORTED, "too many distinct ghost transforms (more than %d)", EJ_MAX_XFORMS);
   /* grow by half: every field of the set is reallocated, so doubling would waste memory */
   if (s->n + s->n_ghost >= s->cap) EJ_TRY(ej_set_reserve(s, s->cap + s->cap / 2 + 64));
@@ -557,9 +624,12 @@ static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, int f_pos, ej_real cutoff)
 {
   const ej_scene *sc = sim->scene;
   s->n_ghost = 0;
+  enum { EJ_MEMO_K = 4 };
+  int16_t memo[EJ_MAX_XFORMS + 1][2][EJ_MEMO_K]; /* [source transform][side][period - 1] */
   for (int b = 0; b < sc->n_bcs; ++b) {
     const ej_scene_bc *bc = &sc->bcs[b];
     if ((bc->kind != EJ_BC_SYMMETRY && bc->kind != EJ_BC_PERIODIC) || !ej_bc_applies(bc, s->index)) continue;
+    memset(memo, 0xff, sizeof memo); /* -1 */
     const ej_idx n_images = s->n + s->n_ghost; /* images of images give edges and corners */
     for (ej_idx g = 0; g < n_images; ++g) {
       /* re-read: pushing a ghost may grow (reallocate) every field */
@@ -581,8 +651,9 @@ static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, int f_pos, ej_real cutoff)
           mirror.b[i] = 2 * pn * nn[i];
         }
         ej_xform t;
-        ej_xform_compose(&mirror, cur, &t);
-        EJ_TRY(ej_ghost_push(sim, s, src, &t));
+        const int ci = g < s->n ? 0 : s->ghost_xf[g - s->n];
+        if (memo[ci][0][0] < 0) ej_xform_compose(&mirror, cur, &t);
+        EJ_TRY(ej_ghost_push(sim, s, src, &t, &memo[ci][0][0]));
       } else {
         /* As many periods as the search radius spans (a thin periodic slab). */
         const ej_real L = bc->hi - bc->lo;
@@ -595,8 +666,10 @@ static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, int f_pos, ej_real cutoff)
           ej_xform shift = {.Q = {1, 0, 0, 0, 1, 0, 0, 0, 1}};
           shift.b[bc->axis] = side == 0 ? k * L : -k * L;
           ej_xform t;
-          ej_xform_compose(&shift, cur, &t);
-          EJ_TRY(ej_ghost_push(sim, s, src, &t));
+          const int ci = g < s->n ? 0 : s->ghost_xf[g - s->n];
+          int16_t none = -1, *mk = k <= EJ_MEMO_K ? &memo[ci][side][k - 1] : &none;
+          if (*mk < 0) ej_xform_compose(&shift, cur, &t);
+          EJ_TRY(ej_ghost_push(sim, s, src, &t, mk));
         }
       }
     }
@@ -617,6 +690,7 @@ static ej_err ej_build_points(ej_sim *sim, ej_set *s, int f_pos, ej_real **xs, e
   const ej_real *xb = s->fields[f_pos].data, *rb = s->fields[s->f_rb].data;
   memcpy(x, xb, (size_t)s->n * 3 * sizeof *x);
   memcpy(r, rb, (size_t)s->n * sizeof *r);
+#pragma omp parallel for schedule(static) if (s->n_ghost > 4096)
   for (ej_idx g = 0; g < s->n_ghost; ++g) {
     const ej_xform *t = &sim->xforms[s->ghost_xf[g]];
     const ej_real *p = xb + 3 * s->ghost_src[g];
@@ -718,6 +792,7 @@ static ej_err ej_rebuild(ej_sim *sim)
       /* reference families keep their bond vectors: their particles are never wrapped */
       if (bc->kind != EJ_BC_PERIODIC || !ej_bc_applies(bc, i) || s->nbr_config == EJ_NBR_REFERENCE) continue;
       const ej_real L = bc->hi - bc->lo;
+#pragma omp parallel for schedule(static) if (s->n > 4096)
       for (ej_idx p = 0; p < s->n; ++p) {
         ej_real *y = &x[3 * p + bc->axis];
         if (*y < bc->lo || *y >= bc->hi) *y -= L * floor((*y - bc->lo) / L);
@@ -744,6 +819,29 @@ static ej_err ej_rebuild(ej_sim *sim)
   return ej_lists_from_build(sim);
 }
 
+/* Search radii of a chunk and its part of the skin watch: max |x - x_build|^2, max (R - R_build),
+ * max R_build (maxima: the same whatever the chunking or thread count). */
+static ej_err ej_due_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)ctx;
+  if (s->nbr_config != EJ_NBR_REFERENCE) EJ_TRY(s->mops->support(s->mstate, s, r, s->radius + r.begin));
+  else memcpy(s->radius + r.begin, (const ej_real *)s->fields[s->f_rb].data + r.begin,
+              (size_t)(r.end - r.begin) * sizeof(ej_real));
+  const ej_real *x = s->fields[s->f_x].data, *xb = s->fields[s->f_xb].data, *rb = s->fields[s->f_rb].data;
+  ej_real d2 = 0, grow = 0, rmax = 0;
+  for (ej_idx p = r.begin; p < r.end; ++p) {
+    ej_real dx = x[3 * p] - xb[3 * p], dy = x[3 * p + 1] - xb[3 * p + 1], dz = x[3 * p + 2] - xb[3 * p + 2];
+    ej_real q = dx * dx + dy * dy + dz * dz;
+    d2 = q > d2 ? q : d2;
+    ej_real g = s->radius[p] - rb[p];
+    grow = g > grow ? g : grow;
+    rmax = rb[p] > rmax ? rb[p] : rmax;
+  }
+  ej_real *cs = sim->chunk_scratch + c * EJ_NSLOT;
+  cs[0] = d2, cs[1] = grow, cs[2] = rmax;
+  return EJ_OK;
+}
+
 /* A rebuild is due when a pair now inside max(R_i, R_j) may have been outside the list's
  * reach at the last build: 2 max|x - x_build| + max(R - R_build) > skin. */
 static ej_err ej_rebuild_due(ej_sim *sim, bool *due)
@@ -752,17 +850,15 @@ static ej_err ej_rebuild_due(ej_sim *sim, bool *due)
   for (int i = 0; i < sim->n_sets; ++i) {
     ej_set *s = sim->sets[i];
     if (s->nbr_config != EJ_NBR_CURRENT && !s->in_interaction) continue;
-    if (s->nbr_config != EJ_NBR_REFERENCE) EJ_TRY(ej_for_chunks(sim, s, ej_support_chunk, NULL));
-    else memcpy(s->radius, s->fields[s->f_rb].data, (size_t)s->n * sizeof(ej_real));
-    const ej_real *x = s->fields[s->f_x].data, *xb = s->fields[s->f_xb].data, *rb = s->fields[s->f_rb].data;
+    EJ_TRY(ej_sim_scratch(sim, s));
+    EJ_TRY(ej_for_chunks(sim, s, ej_due_chunk, NULL));
     ej_real d2 = 0, grow = 0, rmax = 0;
-    for (ej_idx p = 0; p < s->n; ++p) {
-      ej_real dx = x[3 * p] - xb[3 * p], dy = x[3 * p + 1] - xb[3 * p + 1], dz = x[3 * p + 2] - xb[3 * p + 2];
-      ej_real q = dx * dx + dy * dy + dz * dz;
-      d2 = q > d2 ? q : d2;
-      ej_real g = s->radius[p] - rb[p];
-      grow = g > grow ? g : grow;
-      rmax = rb[p] > rmax ? rb[p] : rmax;
+    const int64_t nch = ej_chunk_count(s);
+    for (int64_t c = 0; c < nch; ++c) {
+      const ej_real *cs = sim->chunk_scratch + c * EJ_NSLOT;
+      d2 = cs[0] > d2 ? cs[0] : d2;
+      grow = cs[1] > grow ? cs[1] : grow;
+      rmax = cs[2] > rmax ? cs[2] : rmax;
     }
     if (2 * sqrt(d2) + grow > sim->scene->skin * rmax) *due = true;
   }
@@ -860,9 +956,12 @@ static int ej_set_passes(const ej_set *s)
 /* One pass of an interaction: a's ranges, then b's when the list runs both ways. */
 static ej_err ej_inter_pass(ej_sim *sim, ej_inter *in, int pass)
 {
-  ej_set_update_ghosts(in->a, sim->xforms);
-  if (in->b) ej_set_update_ghosts(in->b, sim->xforms);
+  EJ_TRY(ej_ghosts_refresh(sim, in->a));
+  if (in->b) EJ_TRY(ej_ghosts_refresh(sim, in->b));
   ej_inter_ctx ic = {in, pass, false};
+  /* an interaction does not say what it writes: every field of both sets counts as written */
+  in->a->ghost_dirty = EJ_ALL_FIELDS;
+  if (in->b) in->b->ghost_dirty = EJ_ALL_FIELDS;
   EJ_TRY(ej_for_chunks(sim, in->a, ej_inter_chunk, &ic));
   if (in->list_ba) {
     ej_inter_ctx rc = {in, pass, true};
@@ -875,7 +974,10 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
 {
   int max_pass = 0;
   for (int i = 0; i < sim->n_sets; ++i) {
-    if (!in_step) EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_zero_chunk, NULL));
+    if (!in_step) {
+      sim->sets[i]->ghost_dirty |= sim->sets[i]->step_mask;
+      EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_zero_chunk, NULL));
+    }
     const int np = ej_set_passes(sim->sets[i]);
     if (np > max_pass) max_pass = np;
   }
@@ -889,8 +991,9 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
     for (int i = 0; i < sim->n_sets; ++i) {
       ej_set *s = sim->sets[i];
       if (pass >= ej_set_passes(s)) continue;
-      ej_set_update_ghosts(s, sim->xforms);
+      EJ_TRY(ej_ghosts_refresh(sim, s));
       ej_pass_ctx pc = {pass};
+      ej_mark_pass(s, pass);
       EJ_TRY(ej_for_chunks(sim, s, ej_compute_chunk, &pc));
     }
   }
@@ -900,7 +1003,10 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
     for (int pass = 0; pass < ej_inter_passes(in); ++pass) EJ_TRY(ej_inter_pass(sim, in, pass));
   }
   if (!in_step)
-    for (int i = 0; i < sim->n_sets; ++i) EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_body_chunk, NULL));
+    for (int i = 0; i < sim->n_sets; ++i) {
+      sim->sets[i]->ghost_dirty |= sim->sets[i]->step_mask;
+      EJ_TRY(ej_for_chunks(sim, sim->sets[i], ej_body_chunk, NULL));
+    }
   return EJ_OK;
 }
 
@@ -1399,6 +1505,8 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
 #endif
   sim->progress = opts && opts->progress;
   {
+    const char *gc = getenv("EJECTA_GHOST_CHECK");
+    sim->ghost_check = gc && *gc && strcmp(gc, "0") != 0;
     const char *prof = getenv("EJECTA_PROFILE");
     sim->profile = prof && *prof && strcmp(prof, "0") != 0;
     ej_prof.level = sim->profile ? (strcmp(prof, "2") == 0 ? 2 : 1) : 0;
@@ -1484,26 +1592,40 @@ ej_err ej_sim_run(ej_sim *sim)
   sim->prof_par = 0, sim->prof_out = 0, sim->prof_regions = 0;
   const double t0_prof = sim->profile ? ej_thread_cpu() : 0;
   for (int i = 0; i < sim->n_sets; ++i) n_total += sim->sets[i]->n;
+  /* anything may have written the fields before this call (setup, a restart, a test) */
+  for (int i = 0; i < sim->n_sets; ++i) sim->sets[i]->ghost_dirty = EJ_ALL_FIELDS;
   ej_err rc = EJ_OK;
   const ej_real eps = 1e-12 * (sc->t_end > 0 ? sc->t_end : 1);
   while (sim->t < sc->t_end - eps && (sc->max_steps <= 0 || sim->step < sc->max_steps)) {
     if (sim->t + sim->dt > sc->t_end) sim->dt = sc->t_end - sim->t; /* land on the end time */
     static const bool zero = true;
     ej_prof.k = 0, ej_prof.in_step = 1;
-    for (int i = 0; i < sim->n_sets; ++i)
+    for (int i = 0; i < sim->n_sets; ++i) {
+      sim->sets[i]->ghost_dirty |= sim->sets[i]->step_mask;
       EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_drift_chunk, (void *)&zero), out);
+    }
     sim->t += sim->dt;
     sim->step++;
     bool due;
     EJ_TRY_GOTO(rc, ej_rebuild_due(sim, &due), out);
     if (due) EJ_TRY_GOTO(rc, ej_rebuild(sim), out);
     EJ_TRY_GOTO(rc, ej_compute_all(sim, true), out);
-    for (int i = 0; i < sim->n_sets; ++i) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_chunk, NULL), out);
+    for (int i = 0; i < sim->n_sets; ++i) {
+      sim->sets[i]->ghost_dirty |= sim->sets[i]->step_mask;
+      EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_chunk, NULL), out);
+    }
     for (int i = 0; i < sim->n_sets; ++i)
-      if (sim->sets[i]->mops->post_step) EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_post_chunk, NULL), out);
+      if (sim->sets[i]->mops->post_step) {
+        ej_mark_pass(sim->sets[i], EJ_PASS_POST_STEP);
+        EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_post_chunk, NULL), out);
+      }
     for (int k = 0; k < sim->n_inter; ++k) {
       ej_inter *in = &sim->inter[k];
-      if (EJ_HAS_OP(in->ops, ej_interaction_ops, post_step)) EJ_TRY_GOTO(rc, in->ops->post_step(in->state, in->a, in->b), out);
+      if (EJ_HAS_OP(in->ops, ej_interaction_ops, post_step)) {
+        in->a->ghost_dirty = EJ_ALL_FIELDS;
+        if (in->b) in->b->ghost_dirty = EJ_ALL_FIELDS;
+        EJ_TRY_GOTO(rc, in->ops->post_step(in->state, in->a, in->b), out);
+      }
     }
     EJ_TRY_GOTO(rc, ej_diagnostics(sim, true), out);
     const ej_real dt_used = sim->dt;

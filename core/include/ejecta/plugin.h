@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 2 /* members appended to an info or ops struct        */
+#define EJ_ABI_MINOR 3 /* members appended to an info or ops struct        */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -400,7 +400,16 @@ typedef struct ej_method_ops {
   /* The method carries its own constitutive constants (bond-based PD): its sets' material may
    * give only rho0. Otherwise a material needs an EOS or a strength model. */
   bool self_constitutive;
+  /* --- ABI 1.3. The set's fields that compute pass `pass` (0 .. passes-1) writes, or with
+   * pass = EJ_PASS_POST_STEP those post_step writes: up to max names into names; returns their
+   * number, or -1 for "any field" (also the meaning of a NULL op or an older table). Called once,
+   * after create. The core then copies to the ghosts, before each pass, only the ghosted fields
+   * written since the last refresh (by the integrator, a rebuild, this method's declared writes,
+   * interactions, or the EOS and strength model: fields the method did not declare itself count
+   * as written by every pass), so a field written but not named leaves stale ghosts. */
+  int (*pass_writes)(const void *state, int pass, const char **names, int max);
 } ej_method_ops;
+#define EJ_PASS_POST_STEP (-1) /* pass_writes: the fields post_step writes */
 
 /* ------------------------------------------------------------------ interactions */
 

@@ -2313,6 +2313,26 @@ static ej_err sph_check_config(const void *config, ej_diag *diag)
   return EJ_OK;
 }
 
+/* The fields each pass writes (ABI 1.3 pass_writes: the core then copies to the ghosts only what
+ * was written since the last refresh). Listed for the gas form with continuity density, the
+ * kernel gradient without correction, planar geometry and no conductivity (passes: particle,
+ * pairs; post_step: the density floor); every other configuration answers -1 (every field). */
+static int sph_pass_writes(const void *state, int pass, const char **names, int max)
+{
+  const sph_state *s = state;
+  const sph_config *cfg = &s->cfg;
+  if (cfg->strength || cfg->density == SPH_DENS_SUMMATION || sph_has_matrix_pass(cfg) ||
+      cfg->geometry != SPH_GEOM_PLANAR || cfg->conductivity > 0.0 || max < 6)
+    return -1;
+  static const char *const particle[] = {"rho", "h", "p", "c", "p_rho2", "w_cont"};
+  static const char *const pairs[] = {"a", "rho_dot", "e_dot", "w_visc_dot", "mu_max"};
+  static const char *const post[] = {"rho"};
+  const char *const *l = pass == EJ_PASS_POST_STEP ? post : pass == 0 ? particle : pass == 1 ? pairs : NULL;
+  const int n = pass == EJ_PASS_POST_STEP ? 1 : pass == 0 ? 6 : pass == 1 ? 5 : -1;
+  for (int k = 0; k < n; ++k) names[k] = l[k];
+  return n;
+}
+
 static const ej_method_ops sph_ops = {
     .struct_size = sizeof(ej_method_ops),
     .name = "sph",
@@ -2342,6 +2362,7 @@ static const ej_method_ops sph_ops = {
     .pass_count = sph_pass_count,
     .destroy = sph_destroy,
     .report = sph_report,
+    .pass_writes = sph_pass_writes,
 };
 
 static ej_err sph_register(ej_registry *reg)
