@@ -1610,7 +1610,8 @@ static inline SPH_ALWAYS_INLINE int sph_solid_gather(const int dim, const bool d
       const ej_idx ja = idx[kk], jbb = idx[kk + 1], jc = idx[kk + 2], jd = idx[kk + 3];
       const ej_real *xa = x + 3 * (size_t)ja, *xb = x + 3 * (size_t)jbb, *xc = x + 3 * (size_t)jc,
                     *xd = x + 3 * (size_t)jd;
-      const __m256d X = _mm256_set_pd(xd[0], xc[0], xb[0], xa[0]), Y = _mm256_set_pd(xd[1], xc[1], xb[1], xa[1]);
+      __m256d X, Y; /* x and y: two 128-bit loads per pair of entries, interleaved (sph_pairs_xy4) */
+      sph_pairs_xy4(x, idx + kk, &X, &Y);
       const __m256d Z = _mm256_set_pd(xd[2], xc[2], xb[2], xa[2]), H = _mm256_set_pd(h[jd], h[jc], h[jbb], h[ja]);
       const __m256d hb = _mm256_mul_pd(half, _mm256_add_pd(vhi, H));
       const __m256d d0 = _mm256_sub_pd(vx0, X), d1 = _mm256_sub_pd(vx1, Y), d2 = _mm256_sub_pd(vx2, Z);
@@ -1675,7 +1676,9 @@ static inline SPH_ALWAYS_INLINE void sph_solid_velgrad_row(const int kernel, con
 #if defined(__AVX2__)
     if (dim == 3)
       for (; q4 + 4 <= nk; q4 += 4) {
-        sph_solid_g4(v, 3, jb + q4, bvx + q4), sph_solid_g4(v + 1, 3, jb + q4, bvy + q4);
+        __m256d V0, V1; /* v_x, v_y: two 128-bit loads per pair of entries (sph_pairs_xy4) */
+        sph_pairs_xy4(v, jb + q4, &V0, &V1);
+        _mm256_storeu_pd(bvx + q4, V0), _mm256_storeu_pd(bvy + q4, V1);
         sph_solid_g4(v + 2, 3, jb + q4, bvz + q4);
         sph_solid_g4(m, 1, jb + q4, bm + q4), sph_solid_g4(rho, 1, jb + q4, brho + q4);
       }
@@ -1913,7 +1916,9 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
 #if defined(__AVX2__)
       if (dim == 3)
         for (; q4 + 4 <= nk; q4 += 4) {
-          sph_solid_g4(v, 3, jb + q4, bvx + q4), sph_solid_g4(v + 1, 3, jb + q4, bvy + q4);
+          __m256d V0, V1; /* v_x, v_y: two 128-bit loads per pair of entries (sph_pairs_xy4) */
+          sph_pairs_xy4(v, jb + q4, &V0, &V1);
+          _mm256_storeu_pd(bvx + q4, V0), _mm256_storeu_pd(bvy + q4, V1);
           sph_solid_g4(v + 2, 3, jb + q4, bvz + q4), sph_solid_g4(rho, 1, jb + q4, brho + q4);
           sph_solid_g4(c, 1, jb + q4, bc + q4), sph_solid_g4(m, 1, jb + q4, bm + q4);
         }
