@@ -23,6 +23,10 @@
  *   its own (one-sided) neighbours, by up to 2 at the interface, which no coupling sees.
  *   A solid particle has no h: per pair it takes the fluid particle's h/spacing ratio
  *   (cpl_hbar, h_factor 0), so the fluid's kernel sums are the same across the interface.
+ *   pair_weight bond (default, issue 8 fourth pass): the pair gradient is the solid particle's PD
+ *   bond weight K^-1 X over its horizon, scaled per fluid particle to complete its kernel sum
+ *   (pd_sph_bond_alpha), so the reactions land where the PD sum form's own free-surface force
+ *   lies instead of on the kernel support (README "The pair weight"); kernel: grad W (former).
  * form: consistent — see pd_sph_consistent_solid: Eq 39 over the union of the PD family and
  *   the fluid neighbours (tlpd force_form difference); exact equilibrium, approximate momentum,
  *   unstable like the difference form it needs (README).
@@ -59,6 +63,7 @@ enum { PDSPH_W_CONSTANT = 0, PDSPH_W_CONICAL2 = 1 };
 typedef struct pd_sph_config {
   int form;
   int pair_stress;
+  int pair_weight;
   int kernel;
   ej_real alpha, beta, eta, h_factor;
   ej_real horizon;
@@ -69,6 +74,8 @@ typedef struct pd_sph_config {
 static const char *const pd_sph_forms[] = {"pairwise", "paper", "consistent", NULL};
 static const char *const pd_sph_pair_stress[] = {"owned", "fluid", "both", NULL};
 enum { PDSPH_PS_OWNED = 0, PDSPH_PS_FLUID = 1, PDSPH_PS_BOTH = 2 };
+static const char *const pd_sph_pair_weights[] = {"bond", "kernel", NULL};
+enum { PDSPH_PW_BOND = 0, PDSPH_PW_KERNEL = 1 };
 static const char *const pd_sph_kernels[] = {"cubic_spline", "wendland_c2", NULL};
 static const char *const pd_sph_influences[] = {"constant", "conical2", NULL};
 
@@ -83,6 +90,12 @@ static const ej_param pd_sph_params[] = {
                   "form pairwise: owned (the fluid owns the interface: pair stress 2 sigma_fluid and the fluid's "
                   "continuity counts the solid's relative motion twice; variational, passes the impedance test), "
                   "fluid (sigma_fluid once) or both (sigma_fluid + sigma_solid); the last two fail it."),
+    EJ_PARAM_ENUM(pd_sph_config, pair_weight, pd_sph_pair_weights, "bond",
+                  "pair_stress owned: the pair gradient. bond (issue 8, fourth pass): the solid particle's PD bond "
+                  "weight w beta K^-1 X over its horizon, scaled per fluid particle so that it completes the fluid's "
+                  "kernel sum (the solid receives the reactions where its own free-surface force lies; impedance test at "
+                  "2 mm, Z2/Z1 = 2.83: passes for fluid h 1.2-2 spacings; Z2/Z1 = 0.354 not at h 1.3-1.75, README); "
+                  "kernel: the SPH kernel gradient at the fluid's h (the former rule: fails for h < 2 spacings)."),
     EJ_PARAM_ENUM(pd_sph_config, kernel, pd_sph_kernels, "cubic_spline", "SPH kernel of the fluid-side sums."),
     EJ_PARAM_REAL(pd_sph_config, alpha, "1", 1.0, 0, 10, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Monaghan viscosity, linear coefficient, on approaching interface pairs."),
@@ -115,6 +128,8 @@ typedef struct pd_sph_state {
   cpl_params P;
   const ej_set *solid; /* the set that publishes F (the PD side) */
   cpl_dt dt;
+  ej_real *alpha;  /* pair_weight bond: per fluid particle, by its id (so ghosts read their owner's) */
+  ej_idx n_alpha;
 } pd_sph_state;
 
 static ej_err pd_sph_create(const void *config, ej_set *a, ej_set *b, void **state)
@@ -136,6 +151,13 @@ static ej_err pd_sph_create(const void *config, ej_set *a, ej_set *b, void **sta
   if (rc != EJ_OK) {
     ej_free(s);
     return rc;
+  }
+  s->n_alpha = ej_set_count(fa ? b : a);
+  s->alpha = ej_calloc((size_t)s->n_alpha + 1, sizeof *s->alpha);
+  if (!s->alpha) {
+    cpl_dt_free(&s->dt);
+    ej_free(s);
+    EJ_FAIL(EJ_ERR_MEM, "out of memory");
   }
   *state = s;
   return EJ_OK;
@@ -389,15 +411,151 @@ static void pd_sph_decohesion(const pd_sph_state *s, const cpl_side *S, const cp
   }
 }
 
+/* pair_weight bond (issue 8, fourth pass; README "The pair weight"). The pair gradient of fluid
+ * particle f and solid particle k is g_fk = alpha_f psi_fk, with
+ *   psi_fk = -w beta F_k^-T K_k^-1 X,  X = F_k^-1 (x_f - x_k),
+ * the weight that k's own PD sum form gives a bond to a partner at X (constant influence, tlpd's
+ * partial volume beta = (delta + dx/2 - |X|)/dx at the horizon edge, delta = horizon dx_k), and
+ * alpha_f = C.D / D.D with C = sum_k V_k grad_f W (the part of the fluid's kernel sum that its own
+ * neighbours miss) and D = sum_k V_k psi_fk, so that sum_k V_k g_fk = C: every fluid particle's sums
+ * are completed exactly as with the kernel gradient (a uniform stress is at rest on the fluid side
+ * for any h). The reactions on the solid then follow K_k^-1 X over its horizon, i.e. the profile of
+ * its own free-surface force, instead of the fluid's kernel support (which at h < 2 dx loads the
+ * surface layer alone and drives the PD surface layers' zero-energy modes: validation README).
+ * psi_fk points from f towards k, like grad_f W. A fluid particle with C != 0 but no solid particle
+ * inside any horizon (D = 0: fluid h > (horizon + 1/2) dx / 2) keeps the kernel gradient
+ * (alpha = -1). Writes alpha of the fluid particles in r (by id: the solid side reads ghosts too). */
+static bool pd_sph_bond_psi(const pd_sph_state *s, const cpl_side *S, const ej_real *F, const ej_real *Kinv, ej_idx k,
+                            const ej_real d[3], ej_real psi[3])
+{
+  ej_real Finv[9], X[3], KX[3];
+  if (ej_m3_inverse(Finv, F + 9 * k) == 0) return false;
+  ej_m3_apply(X, Finv, d);
+  const ej_real lx = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
+  const ej_real dxk = cpl_dx(S, k), delta = s->cfg.horizon * dxk;
+  if (!(lx > 0) || lx >= delta + 0.5 * dxk) return false;
+  const ej_real beta = lx > delta - 0.5 * dxk ? (delta + 0.5 * dxk - lx) / dxk : 1.0;
+  ej_m3_apply(KX, Kinv + 9 * k, X);
+  for (int a = 0; a < 3; ++a) psi[a] = -beta * (Finv[a] * KX[0] + Finv[3 + a] * KX[1] + Finv[6 + a] * KX[2]);
+  return true;
+}
+
+static ej_err pd_sph_bond_alpha(pd_sph_state *s, const cpl_side *G, const cpl_side *S, const ej_nbr *gs, ej_range r)
+{
+  const ej_real *F = ej_set_field(S->set, "F"), *Kinv = ej_set_field(S->set, "K_inv");
+  const int32_t *id = ej_set_field_int(G->set, "id");
+  if (!F || !Kinv || !id)
+    EJ_FAIL(EJ_ERR_INPUT, "pd_sph pair_weight bond needs the solid set '%s' to publish F and K_inv (tlpd does)",
+            ej_set_name(S->set));
+  const int dim = G->dim;
+  const ej_real sk = sph_kernel_sigma(s->P.kernel, dim);
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    ej_real C[3] = {0, 0, 0}, D[3] = {0, 0, 0};
+    for (ej_off q = gs->off[i]; q < gs->off[i + 1]; ++q) {
+      const ej_idx k = gs->idx[q];
+      const ej_real d[3] = {G->x[3 * i] - S->x[3 * k], G->x[3 * i + 1] - S->x[3 * k + 1], G->x[3 * i + 2] - S->x[3 * k + 2]};
+      const ej_real r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      if (r2 <= 0) continue;
+      const ej_real Vk = S->m[k] / S->rho[k], hbar = cpl_hbar(G, i, S, k);
+      if (r2 < 4 * hbar * hbar) {
+        const ej_real rr = sqrt(r2);
+        const ej_real dw = sk * sph_inv_pow(1 / hbar, dim + 1) * sph_kernel_df(s->P.kernel, dim, rr / hbar);
+        for (int a = 0; a < 3; ++a) C[a] += Vk * dw * d[a] / rr;
+      }
+      ej_real psi[3];
+      if (pd_sph_bond_psi(s, S, F, Kinv, k, d, psi))
+        for (int a = 0; a < 3; ++a) D[a] += Vk * psi[a];
+    }
+    const ej_real dd = D[0] * D[0] + D[1] * D[1] + D[2] * D[2], cc = C[0] * C[0] + C[1] * C[1] + C[2] * C[2];
+    if (id[i] < 0 || id[i] >= s->n_alpha)
+      EJ_FAIL(EJ_ERR_INTERNAL, "pd_sph: particle id %d of set '%s' outside [0, %lld)", (int)id[i], ej_set_name(G->set),
+              (long long)s->n_alpha);
+    s->alpha[id[i]] = dd > 1e-24 * cc && dd > 0 ? (C[0] * D[0] + C[1] * D[1] + C[2] * D[2]) / dd : (cc > 0 ? -1 : 0);
+  }
+  return EJ_OK;
+}
+
+/* pair_stress owned with pair_weight bond: the terms of cpl_gather_wc (owned: S = 2 sigma_f/(rho_i rho_j)
+ * - Pi I, all of the pair's work into the fluid's e, the fluid's continuity x 2) with g_fk for grad W. Both
+ * sides compute the same S and g (d = x_f - x_k in the same order), so the pair forces are equal and
+ * opposite to round-off. */
+static void pd_sph_bond_gather(const pd_sph_state *s, const cpl_side *A, const cpl_side *B, const ej_nbr *ab, ej_range r,
+                               bool a_fluid)
+{
+  const cpl_side *Fl = a_fluid ? A : B, *So = a_fluid ? B : A;
+  const ej_real *F = ej_set_field(So->set, "F"), *Kinv = ej_set_field(So->set, "K_inv");
+  const int32_t *id = ej_set_field_int(Fl->set, "id");
+  const int dim = A->dim;
+  const ej_real sk = sph_kernel_sigma(s->P.kernel, dim);
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    const ej_real rho_i = A->rho[i], c_i = cpl_c(A, i);
+    ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0;
+    for (ej_off q = ab->off[i]; q < ab->off[i + 1]; ++q) {
+      const ej_idx j = ab->idx[q];
+      const ej_idx f = a_fluid ? i : j, k = a_fluid ? j : i;
+      const ej_real d[3] = {Fl->x[3 * f] - So->x[3 * k], Fl->x[3 * f + 1] - So->x[3 * k + 1], Fl->x[3 * f + 2] - So->x[3 * k + 2]};
+      const ej_real r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      if (r2 <= 0) continue;
+      const ej_real al = s->alpha[id[f]], hbar = cpl_hbar(Fl, f, So, k);
+      ej_real g[3]; /* grad_f */
+      if (al >= 0) {
+        if (al == 0 || !pd_sph_bond_psi(s, So, F, Kinv, k, d, g)) continue;
+        for (int a = 0; a < 3; ++a) g[a] *= al;
+      } else {
+        if (r2 >= 4 * hbar * hbar) continue;
+        const ej_real rr = sqrt(r2);
+        const ej_real dw = sk * sph_inv_pow(1 / hbar, dim + 1) * sph_kernel_df(s->P.kernel, dim, rr / hbar);
+        for (int a = 0; a < 3; ++a) g[a] = dw * d[a] / rr;
+      }
+      if (!a_fluid)
+        for (int a = 0; a < 3; ++a) g[a] = -g[a]; /* grad_k = -grad_f */
+      const ej_real dv[3] = {B->v[3 * j] - A->v[3 * i], B->v[3 * j + 1] - A->v[3 * i + 1], B->v[3 * j + 2] - A->v[3 * i + 2]};
+      const ej_real dxb[3] = {B->x[3 * j] - A->x[3 * i], B->x[3 * j + 1] - A->x[3 * i + 1], B->x[3 * j + 2] - A->x[3 * i + 2]};
+      const ej_real vx = dv[0] * dxb[0] + dv[1] * dxb[1] + dv[2] * dxb[2];
+      ej_real pi = 0;
+      if (vx < 0) {
+        const ej_real mu = hbar * vx / (r2 + s->P.eta * s->P.eta * hbar * hbar);
+        pi = (-s->P.alpha * 0.5 * (c_i + cpl_c(B, j)) * mu + s->P.beta * mu * mu) / (0.5 * (rho_i + B->rho[j]));
+      }
+      ej_real sf[6], t[6], Sm[9], Sg[3];
+      cpl_stress(Fl, f, sf);
+      const ej_real w = 2.0 / (rho_i * B->rho[j]);
+      for (int a = 0; a < 6; ++a) t[a] = w * sf[a];
+      t[0] -= pi, t[1] -= pi, t[2] -= pi;
+      ej_s6_to_m3(Sm, t);
+      ej_m3_apply(Sg, Sm, g);
+      const ej_real mj = B->m[j];
+      for (int a = 0; a < 3; ++a) acc[a] += mj * Sg[a];
+      if (a_fluid) {
+        de += mj * (dv[0] * Sg[0] + dv[1] * Sg[1] + dv[2] * Sg[2]);
+        drho -= 2 * (mj / B->rho[j]) * (dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2]);
+      }
+    }
+    for (int a = 0; a < 3; ++a) A->a[3 * i + a] += acc[a];
+    if (a_fluid) {
+      if (A->e_dot) A->e_dot[i] += de;
+      if (A->rho_dot) A->rho_dot[i] += rho_i * drho;
+    }
+  }
+}
+
 static ej_err pd_sph_compute(void *state, ej_set *a, ej_set *b, const ej_nbr *ab, int pass, ej_range r)
 {
-  (void)pass;
-  const pd_sph_state *s = state;
+  pd_sph_state *s = state;
   cpl_side A, B;
   EJ_TRY(cpl_bind(&A, a, "pd_sph", s->cfg.h_factor));
   EJ_TRY(cpl_bind(&B, b, "pd_sph", s->cfg.h_factor));
   const bool a_is_solid = a == s->solid;
-  if (s->cfg.form == PDSPH_PAIRWISE) {
+  /* pair_weight bond: pass 0 computes the fluid's alpha, pass 1 the pair terms; everything else in pass 0 */
+  const bool bond = s->cfg.form == PDSPH_PAIRWISE && s->cfg.pair_stress == PDSPH_PS_OWNED &&
+                    s->cfg.pair_weight == PDSPH_PW_BOND && !A.line && !B.line;
+  if (pass == 1) {
+    if (bond) pd_sph_bond_gather(s, &A, &B, ab, r, !a_is_solid);
+    return EJ_OK;
+  }
+  if (bond) {
+    if (!a_is_solid) EJ_TRY(pd_sph_bond_alpha(s, &A, &B, ab, r));
+  } else if (s->cfg.form == PDSPH_PAIRWISE) {
     /* pair weights (file comment) */
     switch (s->cfg.pair_stress) {
     case PDSPH_PS_BOTH: cpl_gather(&s->P, &A, &B, ab, r); break;
@@ -440,6 +598,7 @@ static void pd_sph_destroy(void *state)
   pd_sph_state *s = state;
   if (!s) return;
   cpl_dt_free(&s->dt);
+  ej_free(s->alpha);
   ej_free(s);
 }
 
@@ -464,7 +623,7 @@ static const ej_interaction_ops pd_sph_ops = {
     .stable_dt = pd_sph_stable_dt,
     .destroy = pd_sph_destroy,
     .both_ways = true,
-    .n_passes = 1,
+    .n_passes = 2, /* pass 1: pair_weight bond only */
     .n_sets = 2,
 };
 
