@@ -19,6 +19,18 @@ which changes |v| by the same order: this is physics, not an objectivity error. 
 momentum is NOT conserved for a body spun up from a stress-free start (the rings expand at different
 rates and build up shear): the exact continuum disc (disc_reference.py) deviates 0.42/0.60/0.79 % in
 speed at R/2, 3R/4, R (README "Study").
+
+Pre-stressed start (--start prestressed, the default since 2026-11-22): the rigid-rotation
+objectivity test proper. The set starts in the steadily rotating state: tlpd's initial_stress file
+gives each particle the elastic plane-stress rotating-disc stress (Timoshenko & Goodier, rotating
+disc: sigma_rr = (3 + nu)/8 rho w^2 (R^2 - r^2), sigma_tt = rho w^2/8 ((3 + nu) R^2 - (1 + 3 nu) r^2),
+sigma_zz = sigma_rz = sigma_tz = 0). It is in equilibrium with the centripetal acceleration -w^2 r
+everywhere and traction-free on the mantle AND on the end faces (plane strain would need sigma_zz =
+nu (sigma_rr + sigma_tt) on the ends of this H = 2R cylinder); its incompatibility does not matter
+for a rate-form (hypoelastic) material, whose stress at F = I is whatever it is given. So the exact
+solution keeps |v| = w r0 at every point for ever; the objective update must stay within 0.5 %,
+and objective: false (rate) keeps the stress in its t = 0 orientation, wrong by the angle turned
+(1 rad at 1 ms) times sigma: it must leave the band (> 5 %). --start stress_free: the earlier runs.
 """
 import argparse
 import math
@@ -35,7 +47,31 @@ R, H, OMEGA = 0.025, 0.05, 1000.0
 TOL = 0.005
 
 
-def scene(dx, objective, out, columns=None, t_end="1 ms", E="98.5 MPa", kind="rate"):
+NU, RHO = 0.25, 1700.0
+
+
+def disc_stress(x, y):
+    """Plane-stress rotating-disc stress (Pa) at (x, y): sxx, syy, sxy (Timoshenko & Goodier)."""
+    r2 = x * x + y * y
+    a = RHO * OMEGA ** 2 / 8
+    srr = a * (3 + NU) * (R * R - r2)
+    stt = a * ((3 + NU) * R * R - (1 + 3 * NU) * r2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        c2 = np.where(r2 > 0, x * x / np.where(r2 > 0, r2, 1), 1.0)
+        s2 = np.where(r2 > 0, y * y / np.where(r2 > 0, r2, 1), 0.0)
+        cs = np.where(r2 > 0, x * y / np.where(r2 > 0, r2, 1), 0.0)
+    return srr * c2 + stt * s2, srr * s2 + stt * c2, (srr - stt) * cs
+
+
+def write_prestress(path, X):
+    sxx, syy, sxy = disc_stress(X[:, 0], X[:, 1])
+    with open(path, "w") as f:
+        f.write("x,y,z,sxx,syy,sxy\n")
+        for k in range(len(X)):
+            f.write(f"{X[k,0]:.17g},{X[k,1]:.17g},{X[k,2]:.17g},{sxx[k]:.17g},{syy[k]:.17g},{sxy[k]:.17g}\n")
+
+
+def scene(dx, objective, out, columns=None, t_end="1 ms", E="98.5 MPa", kind="rate", prestress=None, every="0.02 ms"):
     init = ""
     if columns is not None:
         lines = []
@@ -47,7 +83,7 @@ def scene(dx, objective, out, columns=None, t_end="1 ms", E="98.5 MPa", kind="ra
 ejecta: 1
 dimension: 3
 time: {{end: {t_end}, dt: 5e-7}}
-output: {{file: {out}, every: 0.02 ms, fields: [v, stress]}}
+output: {{file: {out}, every: {every}, fields: [v, stress]}}
 materials:
   soil: {{model: elastic, rho0: 1700, E: {E}, nu: 0.25}}
 sets:
@@ -57,7 +93,7 @@ sets:
     objective: {str(objective).lower()}
 """ + ("" if objective else f"    nonobjective: {kind}\n") + f"""    shape: {{cylinder: {{base: [0, 0, 0], axis: [0, 0, 1], radius: {R}, height: {H}}}}}
     spacing: {dx}
-""" + init
+""" + (f"    initial_stress: {{file: {prestress}}}\n" if prestress else "") + init
 
 
 def main():
@@ -67,7 +103,14 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--dx", type=float, default=0.002)
     ap.add_argument("--reuse", action="store_true")
+    ap.add_argument("--start", default="prestressed", choices=["prestressed", "stress_free"],
+                    help="prestressed: sigma(t=0) = the rotating-disc stress (the objectivity test); "
+                         "stress_free: the earlier runs (centrifugal expansion transient)")
+    ap.add_argument("--materials", default="soil", help="comma list of soil, stiff")
+    ap.add_argument("--every", default="0.02 ms", help="output interval (the maxima are over the frames)")
+    ap.add_argument("--kinds", default="objective,rate,small_strain", help="comma list of objective, rate, small_strain")
     a = ap.parse_args()
+    pre = a.start == "prestressed"
     exe = common.ejecta_binary(a.build)
     # positions of the lattice (a zero-length run), then one initial-velocity column per (x, y)
     p0, _ = common.run(exe, scene(a.dx, True, "x", None, t_end="1e-9").replace("file: x", f"file: {a.out}/pos.h5"), "pos", a.out,
@@ -75,17 +118,22 @@ def main():
     d0 = common.read_frame(p0, common.frames(p0)[0])
     xy = np.round(d0["x"][:, :2], 9)  # the lattice's own columns (any dx)
     cols = sorted(set(map(tuple, xy)))
+    pfile = None
+    if pre:
+        pfile = os.path.abspath(os.path.join(a.out, "prestress.csv"))
+        write_prestress(pfile, d0["x"])
     # (tag, E, kind): kind "objective" (Hughes-Winget), "rate" (objective: false, 000 Eq 92
     # without the rotation of Eq 93), "small_strain" (objective: false, sym(grad_X du)).
     # soil: 000 Table 2 elastic constants (the paper's set-up); stiff: 25x E (centrifugal
     # stretch rho omega^2 R^2 / E 1.08 % and 0.043 %)
-    cases = [(t, E, k) for t, E in (("soil", "98.5 MPa"), ("stiff", "2.4625 GPa"))
-             for k in ("objective", "rate", "small_strain")]
+    mats = [m for m in (("soil", "98.5 MPa"), ("stiff", "2.4625 GPa")) if m[0] in a.materials.split(",")]
+    cases = [(t, E, k) for t, E in mats for k in a.kinds.split(",")]
+    tagp = "pre_" if pre else ""
     res = {}
     for tag, E, kind in cases:
-        name = f"rot_{tag}_{kind}"
+        name = f"rot_{tagp}{tag}_{kind}"
         out = os.path.join(a.out, name + ".h5")
-        txt = scene(a.dx, kind == "objective", out, cols, t_end="1 ms", E=E, kind=kind)
+        txt = scene(a.dx, kind == "objective", out, cols, t_end="1 ms", E=E, kind=kind, prestress=pfile, every=a.every)
         if not (a.reuse and (os.path.exists(out) or os.path.exists(out + ".partial"))):
             try:
                 common.run(exe, txt, name, a.out, threads=a.threads)
@@ -93,7 +141,7 @@ def main():
                 print(f"  {name}: {e}")
         res[(tag, kind)] = out if os.path.exists(out) else (out + ".partial" if os.path.exists(out + ".partial") else None)
     # probes from the initial frame
-    p0 = res[("soil", "objective")]
+    p0 = next(v for v in res.values() if v is not None)
     f0 = common.read_frame(p0, common.frames(p0)[0])
     x0 = f0["x"]
     ids0 = f0["id"]
@@ -108,7 +156,8 @@ def main():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, axs = plt.subplots(2, 3, figsize=(15, 8))
+    nrow, ncol = len(mats), len(a.kinds.split(","))
+    fig, axs = plt.subplots(nrow, ncol, figsize=(5 * ncol, 4 * nrow), squeeze=False)
     ok = True
     summary = []
     for (tag, E, kind), axk in zip(cases, axs.flat):
@@ -167,7 +216,7 @@ def main():
                   f"{'PASS' if good else 'FAIL'}; radius {100*worst_r:.2f} %, angular momentum {100*worst_h:.2f} %")
         summary.append((tag, kind, good))
         ok &= good
-        axk.set_title(f"{tag} (E = {E}), " + ("Hughes-Winget (objective)" if kind == "objective" else f"objective: false, {kind}"),
+        axk.set_title(("pre-stressed " if pre else "stress-free ") + f"{tag} (E = {E}), " + ("Hughes-Winget (objective)" if kind == "objective" else f"objective: false, {kind}"),
                       fontsize=9)
         axk.set_xlabel("t (ms)")
         axk.set_ylabel("|v| / (omega r0); r / r0 dotted")
@@ -175,8 +224,8 @@ def main():
             axk.set_yscale("log")
         axk.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(os.path.join(HERE, "tlpd_rotation.png"), dpi=110)
-    if res[("soil", "objective")] is not None:  # the paper's run: energy budget through tools/plot_series.py
+    fig.savefig(os.path.join(HERE, "tlpd_rotation.png" if pre else "tlpd_rotation_stress_free.png"), dpi=110)
+    if res.get(("soil", "objective")) is not None and not pre:  # the paper's run: energy budget through tools/plot_series.py
         common.energy_figure(res[("soil", "objective")], os.path.join(HERE, "tlpd_rotation_energy.png"),
                              title="tlpd rotating cylinder, soil, objective: energy budget")
     print("summary: " + ", ".join(f"{t}/{k} {'PASS' if g else 'FAIL'}" for t, k, g in summary))

@@ -32,6 +32,8 @@
  * the core copies fields to the mirror ghosts; pass 1 forces (gather form: row i only). */
 #include <math.h>
 #include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "ejecta/plugin.h"
@@ -49,6 +51,8 @@ enum { TLPD_HG_NONE = 0, TLPD_HG_ZHU_ZHAO = 1, TLPD_HG_SILLING = 2 };
 static const char *const tlpd_hg_names[] = {"none", "zhu_zhao", "silling", NULL};
 enum { TLPD_CONTACT_OFF = 0, TLPD_CONTACT_UNBONDED = 1, TLPD_CONTACT_ALL = 2 };
 static const char *const tlpd_contact_names[] = {"off", "unbonded", "all", NULL};
+enum { TLPD_CLAW_SPRING = 0, TLPD_CLAW_IMPACT = 1 };
+static const char *const tlpd_claw_names[] = {"spring", "impact", NULL};
 enum { TLPD_INV_ABORT = 0, TLPD_INV_POINT_FAILURE = 1 };
 static const char *const tlpd_inv_names[] = {"abort", "point_failure", NULL};
 
@@ -63,6 +67,12 @@ typedef struct tlpd_traction_cfg {
   ej_real rise_time;
   ej_real frequency;
 } tlpd_traction_cfg;
+
+/* initial_stress: a prescribed Cauchy stress at t = 0 (pre-stressed / geostatic start) */
+typedef struct tlpd_init_stress_cfg {
+  ej_real uniform[6];
+  const char *file;
+} tlpd_init_stress_cfg;
 
 typedef struct tlpd_config {
   ej_real horizon;
@@ -80,9 +90,12 @@ typedef struct tlpd_config {
   bool ghost_force_correction;
   ej_real damping;
   int contact;
+  int contact_law;
+  ej_real contact_alpha, contact_beta;
   int inversion;
   tlpd_failure_cfg failure;
   tlpd_traction_cfg traction;
+  tlpd_init_stress_cfg initial_stress;
 } tlpd_config;
 
 static const ej_param tlpd_failure_params[] = {
@@ -103,6 +116,17 @@ static const ej_param tlpd_traction_params[] = {
     EJ_PARAM_REAL(tlpd_traction_cfg, frequency, "1/s", 0, 0, 0, EJ_PF_HAS_MIN,
                   "If > 0, harmonic load P(t) = pressure (1 - cos(frequency t)) / 2 (000 Eq 97), angular "
                   "frequency in rad/s; rise_time is then ignored."),
+    {0}};
+
+static const ej_param tlpd_init_stress_params[] = {
+    EJ_PARAM_ARRAY(tlpd_init_stress_cfg, uniform, 6, "Pa", 0,
+                   "Cauchy stress given to every particle at t = 0, Voigt order xx yy zz xy yz zx (tension "
+                   "positive); default zero."),
+    EJ_PARAM_STRING(tlpd_init_stress_cfg, file, NULL, 0,
+                    "CSV file (path absolute or relative to the working directory) with a header line naming "
+                    "the columns x, y, z (as many as the dimension) and any of sxx, syy, szz, sxy, syz, szx (Pa; "
+                    "absent ones 0): each particle takes the stress of the row at its initial position (within "
+                    "a quarter of its spacing; a particle without a row is an error). Not with uniform."),
     {0}};
 
 static const ej_param tlpd_params[] = {
@@ -156,6 +180,16 @@ static const ej_param tlpd_params[] = {
                   "c_s = 18 K/(pi delta^4), between particles closer than d = min(0.9 |X_ij|, 1.35 min(dx_i, dx_j)); "
                   "unbonded: pairs without an intact bond (broken, detached, or never in a family), all: every pair "
                   "(LAMMPS), off."),
+    EJ_PARAM_ENUM(tlpd_config, contact_law, tlpd_claw_names, "spring",
+                  "Contact force law (with contact unbonded/all): spring, LAMMPS's repulsion alone (elastic, stops "
+                  "relative speeds up to ~2 sqrt(0.14 K/rho)); impact, the spring plus, on approaching pairs, the "
+                  "pairwise viscous pressure rho (alpha c |v_n| + beta v_n^2) on the face min(dx_i, dx_j)^2 (dissipative; "
+                  "heat into e, reported as contact_dissipated)."),
+    EJ_PARAM_REAL(tlpd_config, contact_alpha, "1", 1.0, 0, 0, EJ_PF_HAS_MIN,
+                  "contact_law impact: coefficient of the linear term rho alpha c |v_n| (c = sqrt((K + 4G/3)/rho0), "
+                  "the material's small-strain longitudinal wave speed)."),
+    EJ_PARAM_REAL(tlpd_config, contact_beta, "1", 2.0, 0, 0, EJ_PF_HAS_MIN,
+                  "contact_law impact: coefficient of the quadratic term rho beta v_n^2."),
     EJ_PARAM_ENUM(tlpd_config, inversion, tlpd_inv_names, "abort",
                   "A particle whose F has det F <= 0 (or a singular F_n+1/2, a failed Hughes-Winget rotation): abort "
                   "stops the run with an error; point_failure breaks all its bonds (detached, P = 0), counts it and "
@@ -165,18 +199,30 @@ static const ej_param tlpd_params[] = {
     EJ_PARAM_BLOCK(tlpd_config, traction, tlpd_traction_params, tlpd_traction_cfg, 0,
                    "A pressure on a surface layer, applied as forces P A_i on the particles in a box "
                    "(A_i = vol0_i / dx_i, the face of the particle's cell)."),
+    EJ_PARAM_BLOCK(tlpd_config, initial_stress, tlpd_init_stress_params, tlpd_init_stress_cfg, 0,
+                   "Initial Cauchy stress (like LS-DYNA *INITIAL_STRESS): a pre-stressed or geostatic start, "
+                   "uniform or per particle from a CSV file; F = I at t = 0, the material takes it as its "
+                   "stress state (no strain energy is booked for it in e)."),
     {0}};
 
 static ej_err tlpd_check_config(const void *config, ej_diag *diag)
 {
   const tlpd_config *c = config;
   const tlpd_traction_cfg *t = &c->traction;
+  if (c->contact_law == TLPD_CLAW_IMPACT && c->contact == TLPD_CONTACT_OFF)
+    return ej_diag_error(diag, "contact_law", "contact_law: impact needs contact: unbonded or all (contact is off)");
   if (t->pressure != 0) {
     const ej_real nn = t->normal[0] * t->normal[0] + t->normal[1] * t->normal[1] + t->normal[2] * t->normal[2];
     if (fabs(nn - 1) > 1e-6) return ej_diag_error(diag, "traction", "traction.normal must be a unit vector (|n|^2 = %g)", nn);
     for (int k = 0; k < 3; ++k)
       if (!(t->hi[k] >= t->lo[k]))
         return ej_diag_error(diag, "traction", "traction box: hi[%d] = %g is below lo[%d] = %g", k, t->hi[k], k, t->lo[k]);
+  }
+  const tlpd_init_stress_cfg *is = &c->initial_stress;
+  if (is->file && is->file[0]) {
+    for (int k = 0; k < 6; ++k)
+      if (is->uniform[k] != 0)
+        return ej_diag_error(diag, "initial_stress", "initial_stress: give either 'uniform' or 'file', not both");
   }
   return EJ_OK;
 }
@@ -252,6 +298,8 @@ typedef struct tlpd_state {
   atomic_llong c_grid_epoch;
   atomic_llong epoch;  /* bumped by report (once per step) */
   ej_real *kc;         /* [n] contact stiffness sum_j 15 c_s V_j / delta of the last force pass (stable step) */
+  ej_real *avis;       /* [3n] contact_law impact: acceleration of the viscous contact force (this step) */
+  ej_real *cc;         /* [n] contact_law impact: viscous coefficient sum_j A rho (alpha c + beta |v_n|), N s/m */
   int32_t *ncont;      /* [n] contact pairs of row i in the last force pass */
   /* serial report accumulators */
   ej_real w_traction, w_damping, t_last;
@@ -311,6 +359,12 @@ static ej_err tlpd_declare(const void *config, int dim, ej_decl *d)
                              .doc = "First Piola-Kirchhoff stress."};
     EJ_TRY(ej_decl_field(d, &P));
   }
+  if (cfg->contact != TLPD_CONTACT_OFF && cfg->contact_law == TLPD_CLAW_IMPACT) {
+    const ej_field_decl wc = {.name = "w_contact", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "J/kg",
+                              .rate = "w_contact_dot", .energy = EJ_ENERGY_VISCOUS,
+                              .doc = "Specific work dissipated by the impact contact's viscous pressure (already part of e)."};
+    EJ_TRY(ej_decl_field(d, &wc));
+  }
   EJ_TRY(ej_decl_neighbours(d, EJ_NBR_REFERENCE));
   return EJ_OK;
 }
@@ -326,7 +380,7 @@ static void tlpd_free_arrays(tlpd_state *s)
   ej_free(s->mixed), ej_free(s->full), ej_free(s->gf_state), ej_free(s->egf);
   ej_free(s->hself), ej_free(s->hsum);
   ej_free(s->jmax), ej_free(s->notok);
-  ej_free(s->pfail), ej_free(s->kc), ej_free(s->ncont);
+  ej_free(s->pfail), ej_free(s->kc), ej_free(s->cc), ej_free(s->avis), ej_free(s->ncont);
   ej_free(s->c_cellof), ej_free(s->c_order), ej_free(s->c_start);
 }
 
@@ -439,6 +493,167 @@ static ej_err tlpd_support(void *state, const ej_set *set, ej_range r, ej_real *
   return EJ_OK;
 }
 
+/* ------------------------------------------------------------------ initial stress */
+
+/* One row of the initial_stress file: its cell (key) and values. */
+typedef struct tlpd_is_row {
+  int64_t key[3];
+  ej_real x[3];
+  ej_real s[6];
+} tlpd_is_row;
+
+static int tlpd_is_cmp_key(const int64_t *a, const int64_t *b)
+{
+  for (int k = 0; k < 3; ++k)
+    if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
+  return 0;
+}
+
+static int tlpd_is_cmp(const void *a, const void *b)
+{
+  return tlpd_is_cmp_key(((const tlpd_is_row *)a)->key, ((const tlpd_is_row *)b)->key);
+}
+
+/* Reads the CSV of initial_stress.file into rows (header: x, y, z, sxx, syy, szz, sxy, syz, szx). */
+static ej_err tlpd_is_read(const tlpd_state *s, const char *path, tlpd_is_row **rows_out, size_t *n_out)
+{
+  static const char *const names[9] = {"x", "y", "z", "sxx", "syy", "szz", "sxy", "syz", "szx"};
+  FILE *fp = fopen(path, "r");
+  EJ_ENSURE(fp, EJ_ERR_INPUT, "set '%s': cannot read initial_stress file '%s'", s->name, path);
+  char line[4096];
+  int col[16], ncol = 0; /* kind of each column: 0..8 */
+  bool have[9] = {false};
+  ej_err rc = EJ_OK;
+  tlpd_is_row *rows = NULL;
+  size_t n = 0, cap = 0;
+  long lineno = 1;
+  if (!fgets(line, sizeof line, fp)) {
+    fclose(fp);
+    EJ_FAIL(EJ_ERR_INPUT, "set '%s': initial_stress file '%s' is empty (expected a header line)", s->name, path);
+  }
+  for (char *tok = strtok(line, ",\r\n"); tok; tok = strtok(NULL, ",\r\n")) {
+    while (*tok == ' ' || *tok == '\t') ++tok;
+    size_t L = strlen(tok);
+    while (L > 0 && (tok[L - 1] == ' ' || tok[L - 1] == '\t')) tok[--L] = 0;
+    int kind = -1;
+    for (int k = 0; k < 9; ++k)
+      if (strcmp(tok, names[k]) == 0) kind = k;
+    if (kind < 0 || have[kind] || ncol == 16) {
+      fclose(fp);
+      EJ_FAIL(EJ_ERR_INPUT, "set '%s': initial_stress file '%s' line 1: %s column '%s' (expected x, y, z, sxx, syy, "
+              "szz, sxy, syz, szx)", s->name, path, kind < 0 ? "unknown" : "repeated", tok);
+    }
+    have[kind] = true;
+    col[ncol++] = kind;
+  }
+  for (int k = 0; k < s->dim; ++k)
+    if (!have[k]) {
+      fclose(fp);
+      EJ_FAIL(EJ_ERR_INPUT, "set '%s': initial_stress file '%s' lacks column '%s'", s->name, path, names[k]);
+    }
+  while (fgets(line, sizeof line, fp)) {
+    ++lineno;
+    char *p = line;
+    while (*p == ' ' || *p == '\t') ++p;
+    if (*p == '\n' || *p == '\r' || *p == 0 || *p == '#') continue;
+    if (n == cap) {
+      cap = cap ? 2 * cap : 1024;
+      tlpd_is_row *nr = ej_realloc(rows, cap * sizeof *rows);
+      if (!nr) {
+        rc = ej_error_push(EJ_ERR_MEM, __FILE__, __LINE__, __func__, "out of memory");
+        goto out;
+      }
+      rows = nr;
+    }
+    tlpd_is_row *r = &rows[n];
+    memset(r, 0, sizeof *r);
+    for (int c = 0; c < ncol; ++c) {
+      char *end;
+      const double v = strtod(p, &end);
+      while (*end == ' ' || *end == '\t') ++end;
+      if (end == p || !isfinite(v) || (c + 1 < ncol ? *end != ',' : (*end != 0 && *end != '\n' && *end != '\r'))) {
+        rc = ej_error_push(EJ_ERR_INPUT, __FILE__, __LINE__, __func__,
+                           "set '%s': initial_stress file '%s' line %ld: column %d ('%s') is not a number", s->name,
+                           path, lineno, c + 1, names[col[c]]);
+        goto out;
+      }
+      if (col[c] < 3) r->x[col[c]] = v;
+      else r->s[col[c] - 3] = v;
+      p = end + 1;
+    }
+    ++n;
+  }
+out:
+  fclose(fp);
+  if (rc != EJ_OK) {
+    ej_free(rows);
+    return rc;
+  }
+  *rows_out = rows;
+  *n_out = n;
+  return EJ_OK;
+}
+
+/* initial_stress: sigma(t = 0) = uniform, or the file's row at each particle's initial position
+ * (a row within a quarter of the particle's spacing dx_i = vol0^(1/dim), the nearest if several;
+ * rows sorted by cells of size h = max_i dx_i / 4, so a particle searches its 3^dim cells). */
+static ej_err tlpd_initial_stress(const tlpd_state *s, ej_set *set)
+{
+  const tlpd_init_stress_cfg *c = &s->cfg.initial_stress;
+  const ej_idx n = ej_set_count(set);
+  const ej_real *x = ej_set_field(set, "x"), *vol0 = ej_set_field(set, "vol0");
+  ej_real *stress = ej_set_field(set, "stress");
+  EJ_ENSURE(x && vol0 && stress, EJ_ERR_INTERNAL, "set '%s': tlpd fields missing", s->name);
+  if (!(c->file && c->file[0])) {
+    bool any = false;
+    for (int k = 0; k < 6; ++k) any |= c->uniform[k] != 0;
+    if (any)
+      for (ej_idx i = 0; i < n; ++i) memcpy(stress + 6 * i, c->uniform, 6 * sizeof *stress);
+    return EJ_OK;
+  }
+  tlpd_is_row *rows = NULL;
+  size_t nr = 0;
+  EJ_TRY(tlpd_is_read(s, c->file, &rows, &nr));
+  ej_real h = 0;
+  for (ej_idx i = 0; i < n; ++i) h = fmax(h, 0.25 * tlpd_dx(s, vol0[i]));
+  if (!(h > 0)) h = 1;
+  for (size_t k = 0; k < nr; ++k)
+    for (int a = 0; a < 3; ++a) rows[k].key[a] = a < s->dim ? (int64_t)floor(rows[k].x[a] / h) : 0;
+  qsort(rows, nr, sizeof *rows, tlpd_is_cmp);
+  const int lo = -1, hi = 1;
+  for (ej_idx i = 0; i < n; ++i) {
+    const ej_real *xi = x + 3 * i, tol = 0.25 * tlpd_dx(s, vol0[i]);
+    int64_t ki[3];
+    for (int a = 0; a < 3; ++a) ki[a] = a < s->dim ? (int64_t)floor(xi[a] / h) : 0;
+    ej_real best = INFINITY;
+    const tlpd_is_row *pick = NULL;
+    for (int d0 = lo; d0 <= hi; ++d0)
+      for (int d1 = (s->dim > 1 ? lo : 0); d1 <= (s->dim > 1 ? hi : 0); ++d1)
+        for (int d2 = (s->dim > 2 ? lo : 0); d2 <= (s->dim > 2 ? hi : 0); ++d2) {
+          const int64_t key[3] = {ki[0] + d0, ki[1] + d1, ki[2] + d2};
+          size_t a = 0, b = nr; /* first row with key >= cell */
+          while (a < b) {
+            const size_t mid = a + (b - a) / 2;
+            if (tlpd_is_cmp_key(rows[mid].key, key) < 0) a = mid + 1;
+            else b = mid;
+          }
+          for (; a < nr && tlpd_is_cmp_key(rows[a].key, key) == 0; ++a) {
+            ej_real d2s = 0;
+            for (int q = 0; q < s->dim; ++q) d2s += (rows[a].x[q] - xi[q]) * (rows[a].x[q] - xi[q]);
+            if (d2s < best) best = d2s, pick = &rows[a];
+          }
+        }
+    if (!pick || sqrt(best) > tol) {
+      ej_free(rows);
+      EJ_FAIL(EJ_ERR_INPUT, "set '%s': initial_stress file '%s' has no row within %g m of particle %d at (%g, %g, %g)",
+              s->name, c->file, tol, (int)i, xi[0], xi[1], xi[2]);
+    }
+    memcpy(stress + 6 * i, pick->s, 6 * sizeof *stress);
+  }
+  ej_free(rows);
+  return EJ_OK;
+}
+
 static ej_err tlpd_setup(void *state, ej_set *set)
 {
   const tlpd_state *s = state;
@@ -451,7 +666,7 @@ static ej_err tlpd_setup(void *state, ej_set *set)
               m[i], vol0[i]);
     memcpy(xp + 3 * i, x + 3 * i, 3 * sizeof *x);
   }
-  return EJ_OK;
+  return tlpd_initial_stress(s, set);
 }
 
 /* ------------------------------------------------------------------ lazy allocation */
@@ -522,11 +737,13 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->c_dxmin = nall > 0 ? tlpd_dx(s, vmin) : 0;
     s->c_ncap = 4 * na + 64;
     s->kc = ej_calloc(nn, sizeof *s->kc);
+    s->cc = ej_calloc(nn, sizeof *s->cc);
+    s->avis = ej_calloc(3 * nn, sizeof *s->avis);
     s->ncont = ej_calloc(nn, sizeof *s->ncont);
     s->c_cellof = ej_malloc(na * sizeof *s->c_cellof);
     s->c_order = ej_malloc(na * sizeof *s->c_order);
     s->c_start = ej_malloc((s->c_ncap + 1) * sizeof *s->c_start);
-    c_ok = s->kc && s->ncont && s->c_cellof && s->c_order && s->c_start && (nall == 0 || s->c_dxmin > 0);
+    c_ok = s->kc && s->cc && s->avis && s->ncont && s->c_cellof && s->c_order && s->c_start && (nall == 0 || s->c_dxmin > 0);
   }
   if (!s->wa || !s->wb || !s->Kinv || !s->d6 || !s->wp || !s->area || !s->row_ready || !s->n_fallback || !s->row_intact || !s->aint || !s->vpred || !s->vp_ok || !s->dxp || !s->nbroken ||
       !s->m1 || !s->mixed || !s->full || !s->gf_state || !s->egf || !s->hself || !s->hsum ||
@@ -544,7 +761,7 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->jmax = NULL;
     s->notok = NULL;
     s->pfail = NULL;
-    s->kc = NULL;
+    s->kc = s->cc = s->avis = NULL;
     s->ncont = NULL;
     s->c_cellof = s->c_start = NULL;
     s->c_order = NULL;
@@ -1071,14 +1288,39 @@ static bool tlpd_bonded(const tlpd_state *s, const uint8_t *flags, ej_idx i, ej_
   return lo < s->off[i + 1] && s->idx[lo] == j && !(flags[lo] & TLPD_BROKEN);
 }
 
-/* contact force density on row i (f), its power share (pw, W/m^3: e_dot_i += pw vol0_i / m_i) and
- * stiffness sum (ksum); cells scanned in a fixed order, so the sum does not depend on threads */
-static int tlpd_contact_row(const tlpd_state *s, const ej_set *set, ej_idx i, ej_real f[3], ej_real *pw, ej_real *ksum)
+/* contact_law impact (issue 8, fifth pass): LAMMPS's spring alone stores at most ~0.14 K/rho per
+ * unit mass (149 m/s of relative speed for the buried-charge sand), so km/s interpenetration passes
+ * through it. On a pair in contact (r < d_ij, as the spring) that approaches, w = (v_i - v_j).e < 0,
+ * e = (x_i - x_j)/r, the impact law adds the pairwise viscous pressure of an artificial viscosity
+ * (von Neumann-Richtmyer quadratic + Landshoff linear term, as SPH's Monaghan viscosity in pairwise
+ * form: Monaghan 1992, Annu. Rev. Astron. Astrophys. 30, Eq 4.2, alpha c mu + beta mu^2, with the
+ * pair's normal approach speed for mu), acting on the face A_ij = min(dx_i, dx_j)^2:
+ *   F_i = A_ij rho_ij (alpha c_ij |w| + beta w^2) e,   F_j = -F_i,
+ * rho_ij = (rho0_i + rho0_j)/2 (rho0 = m/vol0), c_ij = sqrt((K + 4G/3)/rho_ij). Every operand is
+ * symmetric in i, j and enters with the same rounding from both rows, so F_j = -F_i bitwise
+ * (momentum to round-off). Frictionless (along e only), never attractive (w < 0 only). Its power
+ * F_i.(v_i - v_j) = -|F| |w| < 0 is heat: booked half per end into e like the spring's (so the
+ * core's budget and energy_correction's identity stay exact) and, as dissipation, into w_contact
+ * (EJ_ENERGY_VISCOUS, reported, already part of e) and the series contact_dissipated. Relative
+ * motion of two equal particles: dw/ds = -(2/dx)(alpha c + beta |w|), i.e. the pair stops within
+ * s = dx/(2 beta) ln(1 + beta |w0|/(alpha c)) of the contact distance (0.72 dx for 2 km/s, beta 2,
+ * c = 240 m/s). No search-sourced formula of a PD contact of this form was found; this is ejecta's
+ * law, documented in plugins/methods/tlpd/README.md. */
+
+/* contact force density on row i (f), its power share (pw, W/m^3: e_dot_i += pw vol0_i / m_i; pv:
+ * the dissipated part, >= 0), stiffness sum (ksum) and viscous coefficient sum (csum, N s/m);
+ * cells scanned in a fixed order, so the sum does not depend on threads */
+static int tlpd_contact_row(const tlpd_state *s, const ej_set *set, ej_idx i, ej_real f[3], ej_real *pw, ej_real *pv,
+                            ej_real *fvis, ej_real *ksum, ej_real *csum)
 {
   const ej_real *x = ej_set_field(set, "x"), *v = ej_set_field(set, "v"), *x0 = ej_set_field(set, "x0");
-  const ej_real *vol0 = ej_set_field(set, "vol0");
+  const ej_real *vol0 = ej_set_field(set, "vol0"), *m = ej_set_field(set, "m");
   const uint8_t *flags = ej_set_bond_flags(set);
   const bool unb = s->cfg.contact == TLPD_CONTACT_UNBONDED;
+  const bool imp = s->cfg.contact_law == TLPD_CLAW_IMPACT;
+  const ej_real ca = s->cfg.contact_alpha, cb = s->cfg.contact_beta, Mlong = s->K + 4.0 / 3.0 * s->G;
+  const ej_real rhoi = m[i] / vol0[i], dtn = imp ? ej_set_dt(set) : 0;
+  ej_real qd = 0, cs = 0, fvx = 0, fvy = 0, fvz = 0;
   const ej_real xi = x[3 * i], yi = x[3 * i + 1], zi = x[3 * i + 2];
   const ej_real dxi = tlpd_dx(s, vol0[i]), di = tlpd_delta(s, dxi);
   const ej_real rc = 1.35 * dxi, rc2 = rc * rc; /* d_ij <= 1.35 min(dx_i, dx_j) <= 1.35 dx_i */
@@ -1105,10 +1347,31 @@ static int tlpd_contact_row(const tlpd_state *s, const ej_set *set, ej_idx i, ej
         if (unb && tlpd_bonded(s, flags, i, j)) continue;
         const ej_real dl = dxj == dxi ? di : 0.5 * (di + tlpd_delta(s, dxj));
         const ej_real k = 15.0 * 18.0 * s->K / (M_PI * dl * dl * dl * dl * dl) * vol0[j];
-        const ej_real rr = sqrt(r2), fm = rr > 0 ? k * (d - rr) / rr : 0;
+        const ej_real rr = sqrt(r2);
+        ej_real fm = rr > 0 ? k * (d - rr) / rr : 0;
+        const ej_real u0 = v[3 * i] - v[3 * j], u1 = v[3 * i + 1] - v[3 * j + 1], u2 = v[3 * i + 2] - v[3 * j + 2];
+        if (imp && rr > 0) {
+          const ej_real w = (ex * u0 + ey * u1 + ez * u2) / rr; /* normal relative speed, < 0 approaching */
+          const ej_real rho = 0.5 * (rhoi + m[j] / vol0[j]), lc = fmin(dxi, dxj);
+          ej_real cv = lc * lc * rho * (ca * sqrt(Mlong / rho) + cb * fabs(w)); /* N s/m */
+          /* at most the pair's inelastic stop in one step, c dt <= mu = m_i m_j/(m_i + m_j) (symmetric in
+           * i, j): a stiffer dashpot would reverse the approach within the step. This clamp, not a
+           * smaller step, keeps the first contact of a fast pair stable: a step bound from c would
+           * lag that contact by a step and then cut dt while |a| is large, and velocity Verlet's
+           * energy error sum_n (dt_n^2 - dt_n-1^2) m |a_n|^2 / 8 would no longer telescope (measured:
+           * balance / KE0 -0.23 with the bound, 2e-16 with the clamp alone, two particles at 1 km/s). */
+          if (dtn > 0) cv = fmin(cv, m[i] * m[j] / (m[i] + m[j]) / dtn);
+          cs += cv;
+          if (w < 0) {
+            const ej_real fv = -cv * w / (vol0[i] * rr); /* force density / r: F_i = cv |w| e */
+            fm += fv;
+            qd += 0.5 * fv * rr * (-w);                   /* half of the pair's dissipated power density */
+            fvx += fv * ex, fvy += fv * ey, fvz += fv * ez;
+          }
+        }
         const ej_real g0 = fm * ex, g1 = fm * ey, g2 = fm * ez;
         f0 += g0, f1 += g1, f2 += g2;
-        p -= 0.5 * (g0 * (v[3 * i] - v[3 * j]) + g1 * (v[3 * i + 1] - v[3 * j + 1]) + g2 * (v[3 * i + 2] - v[3 * j + 2]));
+        p -= 0.5 * (g0 * u0 + g1 * u1 + g2 * u2);
         ks += k;
         ++cnt;
       }
@@ -1116,7 +1379,10 @@ static int tlpd_contact_row(const tlpd_state *s, const ej_set *set, ej_idx i, ej
   }
   f[0] = f0, f[1] = f1, f[2] = f2;
   *pw = p;
+  *pv = qd;
+  if (fvis) fvis[0] = fvx, fvis[1] = fvy, fvis[2] = fvz;
   *ksum = ks;
+  *csum = cs;
   return cnt;
 }
 
@@ -1202,14 +1468,23 @@ static ej_err tlpd_pass_forces(tlpd_state *s, ej_set *set, const ej_nbr *nbr, ej
   const bool gfc = s->cfg.ghost_force_correction && !s->wb_alias && !diff && Kinv_f;
   const bool all_ok = s->wb_alias && atomic_load_explicit(&s->n_notok, memory_order_relaxed) == 0;
   const bool contact = s->cfg.contact != TLPD_CONTACT_OFF;
+  ej_real *restrict wc_dot = contact && s->cfg.contact_law == TLPD_CLAW_IMPACT ? ej_set_field(set, "w_contact_dot") : NULL;
+  EJ_ENSURE(!contact || s->cfg.contact_law != TLPD_CLAW_IMPACT || wc_dot, EJ_ERR_INTERNAL,
+            "set '%s': tlpd field w_contact_dot missing", s->name);
   if (contact) EJ_TRY(tlpd_contact_ready(s, set));
   for (ej_idx i = r.begin; i < r.end; ++i) {
     const int si = status[i];
     ej_real fc[3] = {0, 0, 0}, pc = 0; /* contact force density and power share */
     if (contact) {
-      ej_real ks;
-      s->ncont[i] = tlpd_contact_row(s, set, i, fc, &pc, &ks);
+      ej_real ks, cs, pv, fv[3];
+      s->ncont[i] = tlpd_contact_row(s, set, i, fc, &pc, &pv, fv, &ks, &cs);
       s->kc[i] = ks;
+      s->cc[i] = cs;
+      if (wc_dot) {
+        const ej_real iv = vol0[i] / m[i];
+        wc_dot[i] += pv * iv;
+        for (int q = 0; q < 3; ++q) s->avis[3 * i + q] = fv[q] * iv; /* for post_step's correction */
+      }
     }
     if (gfc && s->gf_state[i] == 0) tlpd_ghost_vector(s, set, nbr, i, Kinv_f);
     ej_real gc[3] = {0, 0, 0}; /* ghost-force correction -P_i e_i (force density) */
@@ -1424,6 +1699,9 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
     ej_real *e = ej_set_field(set, "e"), *e_dot = ej_set_field(set, "e_dot");
     const ej_real *v = ej_set_field(set, "v");
     const ej_real h = 0.5 * ej_set_dt(set);
+    const bool imp = s->cfg.contact != TLPD_CONTACT_OFF && s->cfg.contact_law == TLPD_CLAW_IMPACT;
+    ej_real *wc = imp ? ej_set_field(set, "w_contact") : NULL, *wc_dot = imp ? ej_set_field(set, "w_contact_dot") : NULL;
+    if (wc && !wc_dot) wc = NULL;
     if (e && e_dot && v)
       for (ej_idx i = r.begin; i < r.end; ++i) {
         if (!s->vp_ok[i]) continue;
@@ -1432,6 +1710,12 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
         const ej_real corr = -(ai[0] * (vi[0] - vp[0]) + ai[1] * (vi[1] - vp[1]) + ai[2] * (vi[2] - vp[2]));
         e[i] += h * corr;
         e_dot[i] += corr;
+        if (wc) { /* the viscous contact's share, so that sum m w_contact is the heat booked in e */
+          const ej_real *av = s->avis + 3 * i;
+          const ej_real cw = -(av[0] * (vi[0] - vp[0]) + av[1] * (vi[1] - vp[1]) + av[2] * (vi[2] - vp[2]));
+          wc[i] += h * cw;
+          wc_dot[i] += cw;
+        }
       }
   }
   /* F (pass 0 of this step) is now N(x_prev) K^-1 for the rows that have one */
@@ -1568,11 +1852,20 @@ static ej_err tlpd_stable_dt(void *state, const ej_set *set, ej_range r, ej_real
     }
   }
   /* contact springs of the last force pass (Gershgorin, as the bond springs of tlpd_family_dt):
-   * lambda_i <= 2 sum_j k_ij / m_i, k_ij = V_i V_j 15 c_s / delta */
+   * lambda_i <= 2 sum_j k_ij / m_i, k_ij = V_i V_j 15 c_s / delta. With contact_law impact the
+   * pairs are also dashpots c_ij = A rho (alpha c + beta |w|) (Gershgorin: eta_i <= 2 sum_j c_ij / m_i):
+   * a damped oscillator x'' + eta x' + omega^2 x = 0 under central differences is stable for
+   * dt <= 2 / (h + sqrt(omega^2 + h^2)), h = eta/2 (= 2/omega without damping, 2/eta without the
+   * spring; Belytschko, Liu & Moran 2000, Sec. 6.3, the critical step with damping) */
   if (ready && s->cfg.contact != TLPD_CONTACT_OFF) {
     const ej_real *m = ej_set_field(set, "m");
-    for (ej_idx i = r.begin; i < r.end; ++i)
-      if (s->kc[i] > 0) best = fmin(best, 2 / sqrt(2 * s->kc[i] * vol0[i] / m[i]));
+    for (ej_idx i = r.begin; i < r.end; ++i) {
+      /* contact_law impact: the dashpots are clamped to the pair's one-step stop instead (contact_row);
+       * cc is kept for the report only. Several saturated contacts on one particle can still
+       * overshoot (a limit, plugins/methods/tlpd/README.md). */
+      const ej_real w2 = 2 * s->kc[i] * vol0[i] / m[i], h = 0;
+      if (w2 > 0 || h > 0) best = fmin(best, 2 / (h + sqrt(w2 + h * h)));
+    }
   }
   if (s->cfg.damping > 0) best = fmin(best, 1.0 / s->cfg.damping);
   *dt = best;
@@ -1641,6 +1934,15 @@ static ej_err tlpd_report(void *state, const ej_set *set, ej_series_value *out, 
     int64_t nc = 0;
     for (ej_idx i = 0; atomic_load(&s->ready) && i < s->n; ++i) nc += s->ncont[i];
     out[(*n)++] = (ej_series_value){.name = "contact_pairs", .value = (ej_real)nc, .role = EJ_SERIES_PLAIN};
+  }
+  /* contact_law impact: the heat of the viscous contact pressure so far (J). It is already in e
+   * (so PLAIN: a DISSIPATED role would subtract it from the budget a second time); the core's
+   * energy summary also counts w_contact under "viscous". */
+  if (s->cfg.contact != TLPD_CONTACT_OFF && s->cfg.contact_law == TLPD_CLAW_IMPACT && max > *n) {
+    const ej_real *wc = ej_set_field((ej_set *)set, "w_contact"), *m = ej_set_field((ej_set *)set, "m");
+    ej_real wsum = 0;
+    for (ej_idx i = 0; wc && i < ej_set_count(set); ++i) wsum += m[i] * wc[i];
+    out[(*n)++] = (ej_series_value){.name = "contact_dissipated", .value = wsum, .role = EJ_SERIES_PLAIN};
   }
   return EJ_OK;
 }
