@@ -12,66 +12,8 @@
 
 #include "core_impl.h"
 #include "ejecta/tensor.h"
+#include "tlpd_trun.h"
 
-const ej_plugin_info *ej_plugin_tlpd_info(void);
-const ej_plugin_info *ej_plugin_elastic_info(void);
-
-typedef struct trun {
-  ej_registry *reg;
-  ej_scene *scene;
-  ej_sim *sim;
-  char dir[64], path[128];
-} trun;
-
-static void trun_open(trun *r, const char *yaml)
-{
-  memset(r, 0, sizeof *r);
-  snprintf(r->dir, sizeof r->dir, "/tmp/ej_tlpd_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(r->dir));
-  snprintf(r->path, sizeof r->path, "%s/s.yaml", r->dir);
-  FILE *f = fopen(r->path, "w");
-  ck_assert_ptr_nonnull(f);
-  fprintf(f, "%s\noutput: {file: %s/o.h5}\n", yaml, r->dir);
-  fclose(f);
-  ck_assert_int_eq(ej_registry_create(&r->reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_tlpd_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_elastic_info()), EJ_OK);
-  ej_err rc = ej_scene_load(r->path, r->reg, &r->scene);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  ej_run_opts o = {.struct_size = sizeof o, .threads = 1};
-  rc = ej_sim_create(r->scene, r->reg, &o, &r->sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-}
-
-static void trun_close(trun *r)
-{
-  ej_sim_destroy(r->sim);
-  ej_scene_destroy(r->scene);
-  ej_registry_destroy(r->reg);
-  char p[256];
-  const char *names[] = {"s.yaml", "o.h5", "o.h5.partial", "o.xdmf"};
-  for (int k = 0; k < 4; ++k) {
-    snprintf(p, sizeof p, "%s/%s", r->dir, names[k]);
-    unlink(p);
-  }
-  rmdir(r->dir);
-}
-
-/* zero a and rates, then both passes over two ranges (as the core does, without ghosts) */
-static void trun_compute(trun *r)
-{
-  ej_set *s = r->sim->sets[0];
-  const ej_idx n = ej_set_count(s);
-  for (int k = 0; k < s->n_fields; ++k)
-    if (k == s->f_a || s->fields[k].rate_of >= 0)
-      memset(s->fields[k].data, 0, (size_t)n * s->fields[k].ncomp * sizeof(ej_real));
-  const ej_range halves[2] = {{0, n / 2}, {n / 2, n}};
-  for (int pass = 0; pass < 2; ++pass)
-    for (int h = 0; h < 2; ++h)
-      ck_assert_int_eq(s->mops->compute(s->mstate, s, &s->list->pub, pass, halves[h]), EJ_OK);
-}
 
 static uint64_t rng_next(uint64_t *s)
 {

@@ -13,78 +13,11 @@
 
 #include "core_impl.h"
 #include "ejecta/tensor.h"
-
-const ej_plugin_info *ej_plugin_tlpd_info(void);
-const ej_plugin_info *ej_plugin_elastic_info(void);
-
-typedef struct trun {
-  ej_registry *reg;
-  ej_scene *scene;
-  ej_sim *sim;
-  char dir[64], path[128];
-} trun;
+#include "tlpd_trun.h"
 
 #define MAT "materials: {m: {model: elastic, rho0: 2000, E: 1 GPa, nu: 0.25}}\n"
 static const ej_real is_s0[6] = {-2e6, 1e6, 0.5e6, 0.7e6, -0.2e6, 0.1e6};
 #define S0 "initial_stress: {uniform: [-2e6, 1e6, 0.5e6, 0.7e6, -0.2e6, 0.1e6]}"
-
-static void trun_dir(trun *r)
-{
-  memset(r, 0, sizeof *r);
-  snprintf(r->dir, sizeof r->dir, "/tmp/ej_tlpdis_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(r->dir));
-  snprintf(r->path, sizeof r->path, "%s/s.yaml", r->dir);
-}
-
-/* loads the scene text (in r->dir) and creates the run; returns the error code (no assertion) */
-static ej_err trun_try(trun *r, const char *yaml)
-{
-  FILE *f = fopen(r->path, "w");
-  ck_assert_ptr_nonnull(f);
-  fprintf(f, "%s\noutput: {file: %s/o.h5}\n", yaml, r->dir);
-  fclose(f);
-  ck_assert_int_eq(ej_registry_create(&r->reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_tlpd_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_elastic_info()), EJ_OK);
-  ej_err rc = ej_scene_load(r->path, r->reg, &r->scene);
-  if (rc != EJ_OK) return rc;
-  ej_run_opts o = {.struct_size = sizeof o, .threads = 1};
-  return ej_sim_create(r->scene, r->reg, &o, &r->sim);
-}
-
-static void trun_open(trun *r, const char *yaml)
-{
-  trun_dir(r);
-  ej_err rc = trun_try(r, yaml);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-}
-
-static void trun_close(trun *r)
-{
-  if (r->sim) ej_sim_destroy(r->sim);
-  if (r->scene) ej_scene_destroy(r->scene);
-  if (r->reg) ej_registry_destroy(r->reg);
-  char p[256];
-  const char *names[] = {"s.yaml", "o.h5", "o.h5.partial", "o.xdmf", "s.csv"};
-  for (int k = 0; k < 5; ++k) {
-    snprintf(p, sizeof p, "%s/%s", r->dir, names[k]);
-    unlink(p);
-  }
-  rmdir(r->dir);
-}
-
-/* zero a and rates, then both passes (as the core does, without ghosts) */
-static void trun_compute(trun *r)
-{
-  ej_set *s = r->sim->sets[0];
-  const ej_idx n = ej_set_count(s);
-  for (int k = 0; k < s->n_fields; ++k)
-    if (k == s->f_a || s->fields[k].rate_of >= 0)
-      memset(s->fields[k].data, 0, (size_t)n * s->fields[k].ncomp * sizeof(ej_real));
-  const ej_range all = {0, n};
-  for (int pass = 0; pass < 2; ++pass) ck_assert_int_eq(s->mops->compute(s->mstate, s, &s->list->pub, pass, all), EJ_OK);
-}
 
 /* ------------------------------------------------------------------ equilibrium */
 
