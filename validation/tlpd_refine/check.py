@@ -51,6 +51,7 @@ def pulse(x):
 
 
 HL = 0.0  # horizon_length (m); 0: 3 dx_i
+HG = 0.0  # horizon_grading (slope of the graded horizon; 0: delta_i = 3 dx_i jumps at the interface)
 
 
 def scene(refined, out):
@@ -72,7 +73,7 @@ sets:
     method: tlpd
     material: bar
     ghost_force_correction: true
-{f"    horizon_length: {HL}" + chr(10) if HL > 0 else ""}    shape: {{box: {{min: [0], max: [{L}]}}}}
+{f"    horizon_length: {HL}" + chr(10) if HL > 0 else ""}{f"    horizon_grading: {HG}" + chr(10) if HG > 0 and refined else ""}    shape: {{box: {{min: [0], max: [{L}]}}}}
     spacing: {spacing}
 {refine}    initial:
 """ + "\n".join(strips) + "\n"
@@ -99,10 +100,14 @@ def main():
     ap.add_argument("--reuse", action="store_true")
     ap.add_argument("--a", type=float, default=0.08, help="pulse half-width (m)")
     ap.add_argument("--horizon-length", type=float, default=0.0, help="absolute horizon for both zones (m); 0: 3 dx_i")
+    ap.add_argument("--horizon-grading", type=float, default=0.125,
+                    help="tlpd horizon_grading of the refined bar (0: delta_i = 3 dx_i jumps at the interface); "
+                         "the uniform reference is unchanged (3 dx = 12 mm)")
     a = ap.parse_args()
-    global HL
+    global HL, HG
     HL = a.horizon_length
-    tagx = f"_hl{HL:g}" if HL > 0 else ""
+    HG = a.horizon_grading if HL == 0 else 0.0
+    tagx = f"_hl{HL:g}" if HL > 0 else f"_g{HG:g}" if HG > 0 else ""
     set_geometry(a.a)
     exe = common.ejecta_binary(a.build)
     runs = {}
@@ -113,7 +118,7 @@ def main():
     d = common.read_frame(runs["refined"], common.frames(runs["refined"])[0])
     x0 = np.sort(d["x0"][:, 0])
     dxs = np.diff(x0)
-    print(f"horizon: {f'{HL} m (both zones)' if HL > 0 else '3 dx_i'}; pulse half-width a = {A} m; bar {L:g} m; refined bar: {len(x0)} particles, spacing "
+    print(f"horizon: {f'{HL} m (both zones)' if HL > 0 else f'3 dx_i graded, horizon_grading {HG:g}' if HG > 0 else '3 dx_i'}; pulse half-width a = {A} m; bar {L:g} m; refined bar: {len(x0)} particles, spacing "
           f"{dxs[x0[:-1] < XI - 0.02].mean() * 1e3:.3f} mm (x < {XI:g} m), {dxs[x0[:-1] > XI + 0.02].mean() * 1e3:.3f} mm (x > {XI:g} m)")
     gap = dxs[np.argmin(np.abs(x0[:-1] - XI))]  # the step across the interface: (DXF + DXC) / 2 without a hole
     print(f"step across the interface at x = {XI:g} m: {gap * 1e3:.3f} mm (no hole: {(DXF + DXC) / 2 * 1e3:.3f} mm)")
