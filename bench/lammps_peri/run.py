@@ -21,7 +21,9 @@ nothing: the load average would count this script's own runs); 2 x CPU(1 thread)
 verdict (with passive waiting it leaves out the time a thread waits: an upper bound, not a speed-up).
 The load-independent estimate is thread_split.py (callgrind instructions per thread).
 
-Usage: run.py [--ejecta PATH] [--big SCALE] [--no-big] [--big-steps N] [--only-big] [--steps N]
+Usage: run.py [--ejecta PATH] [--big SCALE] [--no-big] [--big-steps N] [--only-big] [--steps N] [--repeats R]
+  --repeats R: each timed ejecta run of the small target is the best of R (default 3; wall times are
+  measured around the child with time.perf_counter, not /usr/bin/time's 10 ms steps).
   --big SCALE: also run the target enlarged SCALE times in every direction (3487 SCALE^3
   particles; 7 gives 1,091,483) with both codes: LAMMPS 5 steps (its loop time), ejecta
   --big-steps steps (default 25) minus a 1-step run (set-up: CSV import, families), 1 and 2
@@ -58,14 +60,17 @@ EJECTA = arg("--ejecta", os.path.join(ROOT, "build", "bin", "ejecta"))
 STEPS = int(arg("--steps", "1000"))
 BIG = 0 if "--no-big" in sys.argv else int(arg("--big", "7"))
 BIG_STEPS = int(arg("--big-steps", "25"))  # ejecta steps of the enlarged run (LAMMPS: 5, its loop time is direct)
+REPEATS = int(arg("--repeats", "3"))  # runs behind each timed ejecta number of the small target (best of)
 ONLY_BIG = "--only-big" in sys.argv  # rerun the enlarged target only, keeping the rest of results.json
 
 
 def timed(cmd, cwd, env=None):
     """Runs cmd under /usr/bin/time -v: (stdout+stderr text, wall s, CPU (user + sys) s, peak RSS bytes)."""
     tf = os.path.join(cwd, "time.txt")
+    t0 = time.perf_counter()
     p = subprocess.run(["/usr/bin/time", "-v", "-o", tf] + cmd, cwd=cwd, env=env,
                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    wall = time.perf_counter() - t0  # /usr/bin/time's wall has 10 ms steps: 1.5 % of a 0.7 s loop
     out = p.stdout
     if p.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed ({p.returncode}):\n{out[-3000:]}")
@@ -73,8 +78,6 @@ def timed(cmd, cwd, env=None):
     rss = int(re.search(r"Maximum resident set size \(kbytes\): (\d+)", t).group(1)) * 1024
     user = float(re.search(r"User time \(seconds\): ([\d.]+)", t).group(1))
     user += float(re.search(r"System time \(seconds\): ([\d.]+)", t).group(1))
-    m = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (?:(\d+):)?(\d+):([\d.]+)", t)
-    wall = (int(m.group(1) or 0) * 3600 + int(m.group(2)) * 60 + float(m.group(3)))
     return out, wall, user, rss
 
 
@@ -175,6 +178,18 @@ def ejecta_scene(model, workdir, steps, csv, fields="[v, damage]", every=1.0e-5)
     return path
 
 
+def run_ejecta_best(scene, workdir, threads, out="out.h5", policy="passive", repeats=None):
+    """run_ejecta repeated (--repeats, default 3): the smallest wall and the smallest CPU time (each
+    over the repeats), the largest RSS. One run of a ~1 s loop is at the mercy of one hiccup of a
+    shared machine (a daemon waking, the other vCPU stolen for a moment); the other benchmarks of
+    make bench take the best of 3 for the same reason."""
+    best = None
+    for _ in range(repeats or REPEATS):
+        out_, w, c, rss = run_ejecta(scene, workdir, threads, out=out, policy=policy)
+        best = (out_, w, c, rss) if best is None else (out_, min(best[1], w), min(best[2], c), max(best[3], rss))
+    return best
+
+
 def run_ejecta(scene, workdir, threads, out="out.h5", policy="passive"):
     # passive waiting: a thread that waits at a barrier sleeps instead of spinning, so on a shared
     # machine the CPU time counts work (and synchronisation), not spinning while the other thread
@@ -254,15 +269,15 @@ def main():
         os.makedirs(we)
         scene = ejecta_scene(model, we, STEPS, csv)
         scene1 = ejecta_scene(model, we, 1, csv, every=0)
-        _, wall_e1, cpu_e1, rss_e = run_ejecta(scene, we, 1)
+        _, wall_e1, cpu_e1, rss_e = run_ejecta_best(scene, we, 1)
         ser, extra, xe, de, _ = read_ejecta(os.path.join(we, "out.h5"))
-        _, wall_e2, cpu_e2, rss_e2 = run_ejecta(scene, we, 2, out="out2.h5")
+        _, wall_e2, cpu_e2, rss_e2 = run_ejecta_best(scene, we, 2, out="out2.h5")
         ser2, extra2, _, de2, _ = read_ejecta(os.path.join(we, "out2.h5"))
         bitwise_2t = bool(np.array_equal(de, de2) and np.array_equal(ser["kinetic"], ser2["kinetic"]))
-        _, wall_s1, cpu_s1, _ = run_ejecta(scene1, we, 1, out="setup1.h5")
-        _, wall_s2, cpu_s2, _ = run_ejecta(scene1, we, 2, out="setup2.h5")
-        _, wall_d2, _, _ = run_ejecta(scene, we, 2, out="out2d.h5", policy=None)
-        _, wall_sd2, _, _ = run_ejecta(scene1, we, 2, out="setup2d.h5", policy=None)
+        _, wall_s1, cpu_s1, _ = run_ejecta_best(scene1, we, 1, out="setup1.h5")
+        _, wall_s2, cpu_s2, _ = run_ejecta_best(scene1, we, 2, out="setup2.h5")
+        _, wall_d2, _, _ = run_ejecta_best(scene, we, 2, out="out2d.h5", policy=None)
+        _, wall_sd2, _, _ = run_ejecta_best(scene1, we, 2, out="setup2d.h5", policy=None)
         wloop_d2 = max(wall_d2 - wall_sd2, 1e-9)
         loop_e1 = max(cpu_e1 - cpu_s1, 1e-9)
         loop_e2 = max(cpu_e2 - cpu_s2, 1e-9)

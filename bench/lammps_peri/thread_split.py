@@ -14,7 +14,8 @@ the cores, memory bandwidth and the cost of waking threads are NOT counted (call
 a time). Use `--schedule static` (OMP_SCHEDULE=static: each thread gets contiguous halves of the chunks,
 deterministic, the code's own balance); with the core's default (dynamic, 1 chunk at a time) the split
 under valgrind depends on valgrind's thread switching, not on the hardware. --top N also prints the N
-largest functions with their count per thread. The load on the machine does not enter the counts."""
+largest functions with their count per thread. Valgrind 3.19 (Debian 12) cannot run AVX-512 code: on a CPU with AVX-512 build ejecta for this
+script with `-DEJ_NATIVE=OFF` (x86-64-v2). The load on the machine does not enter the counts."""
 import glob
 import os
 import re

@@ -96,17 +96,26 @@ START_TEST(test_threads_bitwise)
   det_run(dir, "t2.h5", 2, DET_STEPS, NULL, &b);
   ck_assert_int_gt(a.n, 1024); /* more than one chunk of particles per thread */
   snap_assert_equal(&a, &b, "1 vs 2 threads");
-  /* the chunk-to-thread schedule (OMP_SCHEDULE, read when the run starts) changes nothing */
-  snap c;
+  /* the chunk-to-thread schedule (OMP_SCHEDULE, read when the run starts; unset: dynamic,1)
+   * changes nothing, nor does a thread count that does not divide the chunks evenly */
+  snap c, d, e;
   ck_assert_int_eq(setenv("OMP_SCHEDULE", "static", 1), 0);
   det_run(dir, "t3.h5", 2, DET_STEPS, NULL, &c);
+  ck_assert_int_eq(setenv("OMP_SCHEDULE", "dynamic,1", 1), 0);
+  det_run(dir, "t4.h5", 2, DET_STEPS, NULL, &d);
   ck_assert_int_eq(unsetenv("OMP_SCHEDULE"), 0);
+  det_run(dir, "t5.h5", 3, DET_STEPS, NULL, &e);
   snap_assert_equal(&a, &c, "1 thread vs 2 threads with OMP_SCHEDULE=static");
+  snap_assert_equal(&a, &d, "1 thread vs 2 threads with OMP_SCHEDULE=dynamic,1");
+  snap_assert_equal(&a, &e, "1 thread vs 3 threads");
   snap_free(&a);
   snap_free(&b);
   snap_free(&c);
-  const char *names[] = {"tube.yaml", "t1.h5", "t1.xdmf", "t2.h5", "t2.xdmf", "t3.h5", "t3.xdmf"};
-  vrun_cleanup(dir, names, 7);
+  snap_free(&d);
+  snap_free(&e);
+  const char *names[] = {"tube.yaml", "t1.h5", "t1.xdmf", "t2.h5", "t2.xdmf", "t3.h5", "t3.xdmf",
+                         "t4.h5", "t4.xdmf", "t5.h5", "t5.xdmf"};
+  vrun_cleanup(dir, names, 11);
 }
 END_TEST
 
