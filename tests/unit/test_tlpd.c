@@ -354,12 +354,9 @@ START_TEST(test_uniform_stress)
 }
 END_TEST
 
-/* Patch test across a refine: interface (issue 4, item 3): a uniform strain (x = A x0) with a
- * uniform stress must give
- * zero force on every row farther than a coarse horizon from the free surfaces, also on the
- * dual-horizon rows of the 4 mm / 8 mm interface. Without ghost_force_correction these rows carry
- * the ghost force (about 0.25 P/dx in 1-D, asserted > 0.05 so that the test can fail). */
-static double refine_ghost(int dim, bool corr, double hl, double grade)
+/* The 4 mm / 8 mm refine: scene of the interface tests: a 1-D bar (0.4 m, fine for x < 0.2) or a
+ * 2-D plate (0.2 x 0.16 m, fine for x < 0.1), with the extra set options opts; opened in r. */
+static void refine_open(trun *r, int dim, const char *opts)
 {
   char y[1024];
   const char *box = dim == 1 ? "{min: [0], max: [0.4]}" : "{min: [0, 0], max: [0.2, 0.16]}";
@@ -367,11 +364,23 @@ static double refine_ghost(int dim, bool corr, double hl, double grade)
   snprintf(y, sizeof y,
            "ejecta: 1\ndimension: %d\ntime: {end: 1e-6}\n" MAT
            "sets: {b: {method: tlpd, material: m, shape: {box: %s}, spacing: 0.008, "
-           "refine: [{region: {box: %s}, spacing: 0.004}], ghost_force_correction: %s, horizon_length: %g, "
-           "horizon_grading: %g}}\n",
-           dim, box, rbox, corr ? "true" : "false", hl, grade);
+           "refine: [{region: {box: %s}, spacing: 0.004}], %s}}\n",
+           dim, box, rbox, opts);
+  trun_open(r, y);
+}
+
+/* Patch test across a refine: interface (issue 4, item 3): a uniform strain (x = A x0) with a
+ * uniform stress must give
+ * zero force on every row farther than a coarse horizon from the free surfaces, also on the
+ * dual-horizon rows of the 4 mm / 8 mm interface. Without ghost_force_correction these rows carry
+ * the ghost force (about 0.25 P/dx in 1-D, asserted > 0.05 so that the test can fail). */
+static double refine_ghost(int dim, bool corr, double hl, double grade)
+{
+  char opts[160];
+  snprintf(opts, sizeof opts, "ghost_force_correction: %s, horizon_length: %g, horizon_grading: %g", corr ? "true" : "false",
+           hl, grade);
   trun r;
-  trun_open(&r, y);
+  refine_open(&r, dim, opts);
   ej_set *s = r.sim->sets[0];
   const ej_idx n = ej_set_count(s);
   ej_real *sig = ej_set_field(s, "stress"), *x = ej_set_field(s, "x"), *xp = ej_set_field(s, "x_prev");
@@ -421,15 +430,10 @@ static double refine_ghost(int dim, bool corr, double hl, double grade)
  * (0.55-1.47: the horizon jump 12 -> 24 mm). */
 static double refine_linear(bool grade)
 {
-  char y[1024];
-  snprintf(y, sizeof y,
-           "ejecta: 1\ndimension: 1\ntime: {end: 1e-6}\n" MAT
-           "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0], max: [0.4]}}, spacing: 0.008, "
-           "refine: [{region: {box: {min: [-1], max: [0.2]}}, spacing: 0.004}], ghost_force_correction: true, "
-           "horizon_grading: %g}}\n",
-           grade ? 0.125 : 0.0);
+  char opts[96];
+  snprintf(opts, sizeof opts, "ghost_force_correction: true, horizon_grading: %g", grade ? 0.125 : 0.0);
   trun r;
-  trun_open(&r, y);
+  refine_open(&r, 1, opts);
   ej_set *s = r.sim->sets[0];
   const ej_idx n = ej_set_count(s);
   ej_real *sig = ej_set_field(s, "stress");
@@ -454,16 +458,10 @@ START_TEST(test_refine_graded_horizon)
 {
   const double g = 0.125;
   for (int dim = 1; dim <= 2; ++dim) {
-    char y[1024];
-    const char *box = dim == 1 ? "{min: [0], max: [0.4]}" : "{min: [0, 0], max: [0.2, 0.16]}";
-    const char *rbox = dim == 1 ? "{min: [-1], max: [0.2]}" : "{min: [-1, -1], max: [0.1, 1]}";
-    snprintf(y, sizeof y,
-             "ejecta: 1\ndimension: %d\ntime: {end: 1e-6}\n" MAT
-             "sets: {b: {method: tlpd, material: m, shape: {box: %s}, spacing: 0.008, "
-             "refine: [{region: {box: %s}, spacing: 0.004}], horizon_grading: %g}}\n",
-             dim, box, rbox, g);
+    char opts[64];
+    snprintf(opts, sizeof opts, "horizon_grading: %g", g);
     trun r;
-    trun_open(&r, y);
+    refine_open(&r, dim, opts);
     ej_set *s = r.sim->sets[0];
     const ej_idx n = ej_set_count(s);
     trun_compute(&r);

@@ -394,6 +394,14 @@ static ej_err tlpd_declare(const void *config, int dim, ej_decl *d)
 
 /* ------------------------------------------------------------------ create / destroy */
 
+/* the graded-horizon search grid (horizon_grading) */
+static void tlpd_grade_free(tlpd_state *s)
+{
+  ej_free(s->gr_pts), ej_free(s->gr_start), ej_free(s->gr_cmax), ej_free(s->gr_ub);
+  s->gr_pts = s->gr_cmax = s->gr_ub = NULL;
+  s->gr_start = NULL;
+}
+
 static void tlpd_free_arrays(tlpd_state *s)
 {
   if (!s->wb_alias) ej_free(s->wb);
@@ -405,9 +413,7 @@ static void tlpd_free_arrays(tlpd_state *s)
   ej_free(s->jmax), ej_free(s->notok);
   ej_free(s->pfail), ej_free(s->kc), ej_free(s->cc), ej_free(s->avis), ej_free(s->ncont);
   ej_free(s->c_cellof), ej_free(s->c_order), ej_free(s->c_start);
-  ej_free(s->gr_pts), ej_free(s->gr_start), ej_free(s->gr_cmax), ej_free(s->gr_ub);
-  s->gr_pts = s->gr_cmax = s->gr_ub = NULL;
-  s->gr_start = NULL;
+  tlpd_grade_free(s);
 }
 
 static void tlpd_destroy(void *state)
@@ -532,6 +538,13 @@ static inline int tlpd_gr_cell(const tlpd_state *s, int d, ej_real x)
   return c < 0 ? 0 : c >= s->gr_nc[d] ? s->gr_nc[d] - 1 : c;
 }
 
+/* the grid cell of point p (row-major, x fastest) */
+static inline size_t tlpd_gr_index(const tlpd_state *s, const ej_real *p)
+{
+  return ((size_t)tlpd_gr_cell(s, 2, p[2]) * (size_t)s->gr_nc[1] + (size_t)tlpd_gr_cell(s, 1, p[1])) * (size_t)s->gr_nc[0] +
+         (size_t)tlpd_gr_cell(s, 0, p[0]);
+}
+
 static ej_err tlpd_grade_build(tlpd_state *s, const ej_set *set)
 {
   const ej_idx n = ej_set_count(set);
@@ -571,8 +584,7 @@ static ej_err tlpd_grade_build(tlpd_state *s, const ej_set *set)
   for (ej_idx i = 0; i < n; ++i) {
     const ej_real dx = tlpd_dx(s, vol0[i]), D = tlpd_delta(s, dx);
     if (!(D > dmin)) continue;
-    const size_t c = ((size_t)tlpd_gr_cell(s, 2, x0[3 * i + 2]) * (size_t)s->gr_nc[1] + (size_t)tlpd_gr_cell(s, 1, x0[3 * i + 1])) *
-                         (size_t)s->gr_nc[0] + (size_t)tlpd_gr_cell(s, 0, x0[3 * i]);
+    const size_t c = tlpd_gr_index(s, x0 + 3 * i);
     s->gr_start[c + 1]++;
     s->gr_cmax[c] = fmax(s->gr_cmax[c], D);
     ++ns;
@@ -588,8 +600,7 @@ static ej_err tlpd_grade_build(tlpd_state *s, const ej_set *set)
   for (ej_idx i = 0; i < n; ++i) {
     const ej_real dx = tlpd_dx(s, vol0[i]), D = tlpd_delta(s, dx);
     if (!(D > dmin)) continue;
-    const size_t c = ((size_t)tlpd_gr_cell(s, 2, x0[3 * i + 2]) * (size_t)s->gr_nc[1] + (size_t)tlpd_gr_cell(s, 1, x0[3 * i + 1])) *
-                         (size_t)s->gr_nc[0] + (size_t)tlpd_gr_cell(s, 0, x0[3 * i]);
+    const size_t c = tlpd_gr_index(s, x0 + 3 * i);
     ej_real *q = s->gr_pts + 5 * (size_t)fill[c]++;
     q[0] = x0[3 * i], q[1] = x0[3 * i + 1], q[2] = x0[3 * i + 2], q[3] = D, q[4] = dx;
   }
@@ -626,9 +637,9 @@ static ej_real tlpd_grade(const tlpd_state *s, const ej_real *p, ej_real dx)
 {
   const ej_real D = tlpd_delta(s, dx);
   if (!s->gr_pts || !(D < s->gr_dmax)) return D;
+  if (!(s->gr_ub[tlpd_gr_index(s, p)] > D)) return D;
   int c0[3];
   for (int d = 0; d < 3; ++d) c0[d] = tlpd_gr_cell(s, d, p[d]);
-  if (!(s->gr_ub[((size_t)c0[2] * (size_t)s->gr_nc[1] + (size_t)c0[1]) * (size_t)s->gr_nc[0] + (size_t)c0[0]] > D)) return D;
   const ej_real g = s->cfg.horizon_grading, h = s->gr_h;
   const int K = (int)ceil(((s->gr_dmax - D) / g + s->gr_dmax) / h) + 1; /* dx_j <= D_max */
   int a[3], b[3];
@@ -871,9 +882,7 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
   EJ_ENSURE(nbr && nbr->n_rows == n && ej_set_bond_flags(set), EJ_ERR_INTERNAL,
             "set '%s': tlpd reference family missing", s->name);
   /* the graded-horizon search grid served the support calls before the family was built */
-  ej_free(s->gr_pts), ej_free(s->gr_start), ej_free(s->gr_cmax), ej_free(s->gr_ub);
-  s->gr_pts = s->gr_cmax = s->gr_ub = NULL;
-  s->gr_start = NULL;
+  tlpd_grade_free(s);
   atomic_store(&s->gr_ready, 0);
   s->n = n;
   s->nb = nbr->off[n];
