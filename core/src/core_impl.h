@@ -464,6 +464,16 @@ typedef struct ej_reports {
 
 typedef struct ej_output ej_output;
 
+/* One thread's block of chunks in ej_for_chunks's affinity schedule: the next chunk to take and
+ * the block's end, 128 bytes apart so that two counters never share a cache line (the owner's is
+ * not shared until others steal), whatever the alignment of the allocation. */
+#define EJ_MAX_BLOCKS 256
+typedef struct ej_chunk_block {
+  int64_t next;
+  int64_t end;
+  char pad[112];
+} ej_chunk_block;
+
 struct ej_sim {
   ej_scene *scene; /* borrowed */
   ej_registry *reg; /* borrowed */
@@ -494,6 +504,8 @@ struct ej_sim {
   ej_idx chunk;
   ej_real *chunk_scratch; /* per-chunk partial sums */
   int64_t chunk_scratch_cap;
+  bool affinity;                          /* ej_for_chunks: affinity schedule (OMP_SCHEDULE unset) */
+  ej_chunk_block blocks[EJ_MAX_BLOCKS];   /* its per-thread chunk blocks                        */
   /* EJECTA_GHOST_CHECK=1: after each partial ghost refresh, compare with a full one */
   bool ghost_check;
   /* EJECTA_PROFILE=1: wall time of the step loop and of its parallel regions */

@@ -173,7 +173,8 @@ static void ej_prof_print(int64_t steps, double loop, double par)
 #ifdef _OPENMP
 /* The chunk loops' schedule from OMP_SCHEDULE ("static", "dynamic,4", "guided", modifiers such as
  * "nonmonotonic:" ignored), read at every run rather than once by the OpenMP runtime, so that a
- * program running several simulations sees a change; unset or unknown: dynamic, 1. */
+ * program running several simulations sees a change; unknown: dynamic, 1 (unset: the affinity
+ * schedule of ej_for_chunks). */
 static void ej_set_chunk_schedule(const char *env)
 {
   omp_sched_t kind = omp_sched_dynamic;
@@ -192,7 +193,48 @@ static void ej_set_chunk_schedule(const char *env)
 }
 #endif
 
-/* Runs fn over the owned particles of s in chunks; the first error (lowest chunk) wins. */
+/* One chunk of ej_for_chunks: skipped when a lower chunk already failed; a failure records the
+ * lowest failing chunk's error frames. */
+static inline void ej_chunk_run(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx, int64_t c, int64_t *failed_chunk,
+                                ej_error_frame *frames, int *nframes)
+{
+  int64_t seen;
+#pragma omp atomic read
+  seen = *failed_chunk;
+  if (seen < c) return;
+  const double t_c = ej_prof.level > 1 ? ej_thread_cpu() : 0;
+  ej_err rc = fn(sim, s, ctx, c, ej_chunk_range(s, c));
+  if (ej_prof.level > 1 && c < EJ_PROF_MAXC) {
+    const double dt_c = ej_thread_cpu() - t_c;
+    ej_prof.cost[c] = dt_c;
+#ifdef _OPENMP
+    const int tid = omp_get_thread_num();
+#else
+    const int tid = 0;
+#endif
+    if (tid < EJ_PROF_MAXT) ej_prof.busy[8 * tid] += dt_c;
+  }
+  if (rc != EJ_OK) {
+#pragma omp critical(ej_chunk_error)
+    {
+      if (c < *failed_chunk) {
+        *nframes = ej_error_count();
+        for (int k = 0; k < *nframes; ++k) frames[k] = *ej_error_frame_at(k);
+        *failed_chunk = c;
+      }
+    }
+    ej_error_clear();
+  }
+}
+
+/* Runs fn over the owned particles of s in chunks; the first error (lowest chunk) wins.
+ * Default schedule ("affinity", OMP_SCHEDULE unset): thread t owns the t-th contiguous block of
+ * chunks and takes them in order from a counter of its own; a thread that has finished its block
+ * takes chunks from the other blocks' counters (t+1, t+2, ...). Every region thus gives a thread
+ * the same particles as the region before, which it wrote and still holds in its cache (with
+ * `dynamic,1` half of them moved between the cores' caches at every region), and the stealing
+ * keeps the balance of a dynamic schedule (a thread that waits for its core loses chunks to the
+ * others). OMP_SCHEDULE set: OpenMP's runtime schedule with that value. */
 static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
 {
   const int64_t nch = ej_chunk_count(s);
@@ -200,35 +242,36 @@ static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
   ej_error_frame frames[EJ_ERROR_MAX_FRAMES];
   int nframes = 0;
   const double t_prof = sim->profile ? ej_thread_cpu() : 0, w_prof = ej_prof.level > 1 ? ej_wall() : 0;
-#pragma omp parallel for schedule(runtime)
-  for (int64_t c = 0; c < nch; ++c) {
-    int64_t seen;
-#pragma omp atomic read
-    seen = failed_chunk;
-    if (seen < c) continue;
-    const double t_c = ej_prof.level > 1 ? ej_thread_cpu() : 0;
-    ej_err rc = fn(sim, s, ctx, c, ej_chunk_range(s, c));
-    if (ej_prof.level > 1 && c < EJ_PROF_MAXC) {
-      const double dt_c = ej_thread_cpu() - t_c;
-      ej_prof.cost[c] = dt_c;
+  int nb = 1;
 #ifdef _OPENMP
-      const int tid = omp_get_thread_num();
-#else
-      const int tid = 0;
-#endif
-      if (tid < EJ_PROF_MAXT) ej_prof.busy[8 * tid] += dt_c;
-    }
-    if (rc != EJ_OK) {
-#pragma omp critical(ej_chunk_error)
-      {
-        if (c < failed_chunk) {
-          nframes = ej_error_count();
-          for (int k = 0; k < nframes; ++k) frames[k] = *ej_error_frame_at(k);
-          failed_chunk = c;
+  if (sim->affinity) {
+    nb = omp_get_max_threads();
+    nb = nb > EJ_MAX_BLOCKS ? EJ_MAX_BLOCKS : nb;
+    nb = (int64_t)nb > nch ? (int)nch : nb;
+  }
+  if (nb > 1) {
+    ej_chunk_block *B = sim->blocks;
+    for (int t = 0; t < nb; ++t) B[t].next = nch * t / nb, B[t].end = nch * (t + 1) / nb;
+#pragma omp parallel num_threads(nb)
+    {
+      const int t = omp_get_thread_num();
+      /* its own block first, then the others' (all of them: the runtime may give fewer threads) */
+      for (int k = 0; k < nb; ++k) {
+        ej_chunk_block *b = &B[(t + k) % nb];
+        for (;;) {
+          int64_t c;
+#pragma omp atomic capture
+          c = b->next++;
+          if (c >= b->end) break;
+          ej_chunk_run(sim, s, fn, ctx, c, &failed_chunk, frames, &nframes);
         }
       }
-      ej_error_clear();
     }
+  } else
+#endif
+  {
+#pragma omp parallel for schedule(runtime)
+    for (int64_t c = 0; c < nch; ++c) ej_chunk_run(sim, s, fn, ctx, c, &failed_chunk, frames, &nframes);
   }
   if (sim->profile) sim->prof_par += ej_thread_cpu() - t_prof, sim->prof_regions++;
   if (ej_prof.level > 1) ej_prof_region_end(nch, ej_wall() - w_prof);
@@ -1497,11 +1540,15 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
 #endif
   }
 #ifdef _OPENMP
-  /* The chunk loops (ej_for_chunks) take OpenMP's runtime schedule: dynamic, 1 chunk at a time
-   * unless the user sets OMP_SCHEDULE (e.g. "static": each thread keeps the same contiguous
-   * chunks in every pass, so their particles stay in its cache). Results do not depend on it:
-   * every chunk computes the same values whichever thread runs it. */
-  ej_set_chunk_schedule(getenv("OMP_SCHEDULE"));
+  /* The chunk loops (ej_for_chunks) take the core's affinity schedule (own block first, then
+   * stealing) unless the user sets OMP_SCHEDULE (e.g. "static", "dynamic,1"): then OpenMP's
+   * runtime schedule with that value. Results do not depend on it: every chunk computes the same
+   * values whichever thread runs it. */
+  {
+    const char *sched = getenv("OMP_SCHEDULE");
+    sim->affinity = !(sched && *sched);
+    ej_set_chunk_schedule(sched);
+  }
 #endif
   sim->progress = opts && opts->progress;
   {

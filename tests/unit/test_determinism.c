@@ -96,8 +96,9 @@ START_TEST(test_threads_bitwise)
   det_run(dir, "t2.h5", 2, DET_STEPS, NULL, &b);
   ck_assert_int_gt(a.n, 1024); /* more than one chunk of particles per thread */
   snap_assert_equal(&a, &b, "1 vs 2 threads");
-  /* the chunk-to-thread schedule (OMP_SCHEDULE, read when the run starts; unset: dynamic,1)
-   * changes nothing, nor does a thread count that does not divide the chunks evenly */
+  /* the chunk-to-thread schedule (OMP_SCHEDULE, read when the run starts; unset: the core's
+   * affinity schedule with stealing) changes nothing, nor does a thread count that does not
+   * divide the chunks evenly (3 threads: blocks of unequal size) */
   snap c, d, e;
   ck_assert_int_eq(setenv("OMP_SCHEDULE", "static", 1), 0);
   det_run(dir, "t3.h5", 2, DET_STEPS, NULL, &c);
