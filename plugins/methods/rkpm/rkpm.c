@@ -23,7 +23,8 @@
  * Three passes per step (the core refreshes ghosts between passes):
  *  pass 0: moment matrix M(x_I) = sum_J H H^T phi_J (003 Eq 5), its inverse with the
  *          singularity guard (fallback to the constant basis), a copy of the mid-step
- *          velocity for neighbours (v_half is not ghosted); MSNNI: M at the face points;
+ *          velocity for neighbours (v_half is not ghosted); MSNNI Lagrangian: M at the face
+ *          points (semi-Lagrangian: in pass 1, rk_box_fused_node);
  *  pass 1: velocity gradients (implicit RK gradient, or MSNNI smoothed box gradients),
  *          Hughes-Winget rotation of the stress, material update (ej_mat_batch), p, c, rho_dot,
  *          e_dot; MSNNI: sub-box stresses and face tractions;
@@ -31,7 +32,9 @@
  *          (003 Eq 16 with nodal quadrature) or the MSNNI face-traction form, and the
  *          viscous stabilisation forces. */
 /* The face-point loops must vectorise: GCC only if-converts the branch-free kernel (and
- * vectorises sqrt) without trapping-math semantics, which this file does not rely on. */
+ * vectorises sqrt) without trapping-math semantics, which this file does not rely on. No FMA
+ * contraction (-std=c11): native and portable builds give the same results (2026-11-28: FMA
+ * would gain ~6 % at round-off differences, not taken). */
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC optimize("no-trapping-math")
 #endif
@@ -70,7 +73,7 @@ static inline ej_real rk_face_tol(ej_real tol) { return tol > RK_FACE_RCOND ? to
  * validation/penetration (45 deg, a filament of 4 nodes): 2.1e-6. */
 #define RK_SPREAD_MIN 1e-3
 #define RK_QMAX 0.6124 /* farthest face point from the node, in box edges: sqrt(6)/4 (3D) */
-#define RK_CHUNK 32    /* neighbours per chunk of the face-point sweeps (stack scratch) */
+#define RK_CHUNK 64    /* neighbours per chunk of the face-point sweeps (stack scratch) */
 #define RK_CHUNK2 16   /* nodes L per chunk of the force sweep (stack scratch ~32 kB) */
 
 typedef struct rk_config {
@@ -652,6 +655,73 @@ static inline RK_ALWAYS_INLINE void rk_taylor_parts(const int dim, ej_real m0, c
   }
 }
 
+/* First row (b0, b) of M^-1 at the face points of a node from the accumulated moments (by
+ * padded position), stored by padded position into b; returns the number of flagged points. */
+static inline RK_ALWAYS_INLINE int rk_face_rows(const int n, const rk_state *s, const ej_real ftol,
+                                               const ej_real *restrict A0, const ej_real *restrict A1,
+                                               const ej_real *restrict A2, const ej_real *restrict A3,
+                                               const ej_real *restrict A11, const ej_real *restrict A22,
+                                               const ej_real *restrict A33, const ej_real *restrict A12,
+                                               const ej_real *restrict A13, const ej_real *restrict A23,
+                                               ej_real *restrict b)
+{
+  /* First row of M^-1 at every face point: the Cholesky of rk_row0_spd (same arithmetic),
+   * written branch-free over the padded positions so that it vectorises; a point with a
+   * pivot below ftol (or not covered) is flagged. */
+  int nflag = 0;
+  for (int p = 0; p < 4 * s->ng; ++p) {
+    /* Cholesky M = Lc Lc^T column by column, Li = Lc^-1, r0 = first row of Li^T Li: the
+     * arithmetic of rk_inv_spd written out with scalars (n = dim + 1 a compile-time constant)
+     * so that the loop over the face points vectorises. Entries beyond n are never used. */
+    const ej_real m00 = A0[p], m10 = A1[p], m20 = A2[p], m30 = A3[p];
+    const ej_real m11 = A11[p], m21 = A12[p], m31 = A13[p], m22 = A22[p], m32 = A23[p], m33 = A33[p];
+    int ok = m00 > 0.0;
+    const ej_real s0 = m00;
+    ok &= (s0 > ftol * m00) & (s0 > 0.0);
+    const ej_real l00 = sqrt(s0), i00 = 1.0 / l00;
+    const ej_real l10 = m10 * i00, l20 = m20 * i00, l30 = m30 * i00;
+    ej_real l11 = 1.0, l21 = 0.0, l31 = 0.0, l22 = 1.0, l32 = 0.0, l33 = 1.0;
+    if (n > 1) {
+      const ej_real s1 = m11 - l10 * l10;
+      ok &= (s1 > ftol * m11) & (s1 > 0.0);
+      l11 = sqrt(s1);
+      const ej_real i11 = 1.0 / l11;
+      l21 = (m21 - l20 * l10) * i11, l31 = (m31 - l30 * l10) * i11;
+    }
+    if (n > 2) {
+      const ej_real s2 = m22 - l20 * l20 - l21 * l21;
+      ok &= (s2 > ftol * m22) & (s2 > 0.0);
+      l22 = sqrt(s2);
+      l32 = (m32 - l30 * l20 - l31 * l21) * (1.0 / l22);
+    }
+    if (n > 3) {
+      const ej_real s3 = m33 - l30 * l30 - l31 * l31 - l32 * l32;
+      ok &= (s3 > ftol * m33) & (s3 > 0.0);
+      l33 = sqrt(s3);
+    }
+    const ej_real j00 = 1.0 / l00, j11 = 1.0 / l11, j22 = 1.0 / l22, j33 = 1.0 / l33;
+    const ej_real j10 = -(l10 * j00) / l11;
+    const ej_real j20 = -(l20 * j00 + l21 * j10) / l22, j21 = -(l21 * j11) / l22;
+    const ej_real j30 = -(l30 * j00 + l31 * j10 + l32 * j20) / l33, j31 = -(l31 * j11 + l32 * j21) / l33;
+    const ej_real j32 = -(l32 * j22) / l33;
+    ej_real r0[4] = {j00 * j00, 0.0, 0.0, 0.0};
+    if (n > 1) r0[0] += j10 * j10, r0[1] = j11 * j10;
+    if (n > 2) r0[0] += j20 * j20, r0[1] += j21 * j20, r0[2] = j22 * j20;
+    if (n > 3) r0[0] += j30 * j30, r0[1] += j31 * j30, r0[2] += j32 * j30, r0[3] = j33 * j30;
+    /* Too few nodes cover a flagged face point (outside a free surface, a corner): b0 = -1
+     * (M^-1 is positive definite so b0 > 0 otherwise) and the node's first order Taylor
+     * expansion is used there, Psi_J(x_f) = Psi_J(x_L) + grad Psi_J(x_L).(x_f - x_L): still
+     * a partition of unity that reproduces linear fields. Padding lanes: zeros. */
+    const int valid = s->gperm[p] >= 0;
+    nflag += valid & !ok;
+    b[p] = ok ? r0[0] : valid ? -1.0 : 0.0;
+    b[RK_NF_MAX + p] = ok ? r0[1] : 0.0;
+    b[2 * RK_NF_MAX + p] = ok ? r0[2] : 0.0;
+    b[3 * RK_NF_MAX + p] = ok ? r0[3] : 0.0;
+  }
+  return nflag;
+}
+
 /* MSNNI pass 0: the moment matrix M(x_f) (003 Eq 5) at every face point of node L's box,
  * from L and its neighbours, and the first row (b0, b) of its inverse in the basis scaled by
  * l = a_L, so that Psi_J(x_f) = (b0 + b . (x_f - x_J) / l) phi_J(x_f - x_J) (003 Eq 4). A face
@@ -683,87 +753,69 @@ static inline RK_ALWAYS_INLINE void rk_box_moment_rows(const int dim, const rk_s
     ej_real A0[RK_NF_MAX] = {0}, A1[RK_NF_MAX] = {0}, A2[RK_NF_MAX] = {0}, A3[RK_NF_MAX] = {0};
     ej_real A11[RK_NF_MAX] = {0}, A22[RK_NF_MAX] = {0}, A33[RK_NF_MAX] = {0};
     ej_real A12[RK_NF_MAX] = {0}, A13[RK_NF_MAX] = {0}, A23[RK_NF_MAX] = {0};
-    /* Neighbours in chunks: first the (neighbour, group) pairs whose ball test passes are
-     * listed without branches (the support of J misses the others: exact zeros), then the
-     * listed groups are evaluated, 4 lanes each, in neighbour order. */
+    /* Face-point offsets hq q by padded position (the same products as before). */
+    ej_real hq0[RK_NF_MAX], hq1[RK_NF_MAX], hq2[RK_NF_MAX];
+    for (int p = 0; p < 4 * ng; ++p) hq0[p] = hq * q0[p], hq1[p] = hq * q1[p], hq2[p] = hq * q2[p];
+    /* Neighbours in chunks (SoA): the ball tests of all (neighbour, group) pairs, then one list
+     * of neighbours per group (the support of J misses the other groups: exact zeros), then per
+     * group its 4 lanes accumulated in registers over the listed neighbours. Every face point
+     * still sums its neighbours in neighbour order: bitwise the same sums as the (neighbour,
+     * group)-ordered sweep, without the accumulators' round trips through memory. */
     for (ej_off k = off[L] - 1; k < off[L + 1];) {
-      ej_real cc[RK_CHUNK][3], ia[RK_CHUNK];
-      int item[RK_CHUNK * (RK_NF_MAX / 4)], nit = 0, nn = 0;
+      ej_real cx[RK_CHUNK], cy[RK_CHUNK], cz[RK_CHUNK], ia[RK_CHUNK], aa[RK_CHUNK];
+      int lst[RK_NF_MAX / 4][RK_CHUNK], cnt[RK_NF_MAX / 4];
+      int nn = 0;
       for (; k < off[L + 1] && nn < RK_CHUNK; ++k, ++nn) {
         const ej_idx j = k < off[L] ? L : nidx[k];
-        ej_real c0 = X[3 * L] - X[3 * j], c1 = 0.0, c2 = 0.0;
-        if (dim > 1) c1 = X[3 * L + 1] - X[3 * j + 1];
-        if (dim > 2) c2 = X[3 * L + 2] - X[3 * j + 2];
-        const ej_real aj = ra[j];
-        cc[nn][0] = c0, cc[nn][1] = c1, cc[nn][2] = c2, ia[nn] = 1.0 / aj;
-        for (int g = 0; g < ng; ++g) {
-          const ej_real e0 = c0 + gcx[g][0], e1 = c1 + gcx[g][1], e2 = c2 + gcx[g][2], rr = aj + grx[g];
-          item[nit] = 16 * nn + g;
-          nit += e0 * e0 + e1 * e1 + e2 * e2 < rr * rr;
-        }
+        cx[nn] = X[3 * L] - X[3 * j];
+        cy[nn] = dim > 1 ? X[3 * L + 1] - X[3 * j + 1] : 0.0;
+        cz[nn] = dim > 2 ? X[3 * L + 2] - X[3 * j + 2] : 0.0;
+        aa[nn] = ra[j];
       }
-      for (int t = 0; t < nit; ++t) {
-        const int jn = item[t] >> 4, g = item[t] & 15;
-        const ej_real c0 = cc[jn][0], c1 = cc[jn][1], c2 = cc[jn][2], inv_aj = ia[jn];
-        for (int p = 4 * g; p < 4 * g + 4; ++p) {
-          const ej_real d0 = c0 + hq * q0[p], d1 = dim > 1 ? c1 + hq * q1[p] : 0.0, d2 = dim > 2 ? c2 + hq * q2[p] : 0.0;
-          const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
-          const ej_real h1 = d0 * inv_l, h2 = d1 * inv_l, h3 = d2 * inv_l;
-          A0[p] += w, A1[p] += w * h1, A11[p] += w * h1 * h1;
-          if (dim > 1) A2[p] += w * h2, A22[p] += w * h2 * h2, A12[p] += w * h1 * h2;
-          if (dim > 2) A3[p] += w * h3, A33[p] += w * h3 * h3, A13[p] += w * h1 * h3, A23[p] += w * h2 * h3;
+      for (int t = 0; t < nn; ++t) ia[t] = 1.0 / aa[t];
+      for (int g = 0; g < ng; ++g) {
+        const ej_real gx = gcx[g][0], gy = gcx[g][1], gz = gcx[g][2], gr = grx[g];
+        int in[RK_CHUNK];
+        for (int t = 0; t < nn; ++t) {
+          const ej_real e0 = cx[t] + gx, e1 = cy[t] + gy, e2 = cz[t] + gz, rr = aa[t] + gr;
+          in[t] = e0 * e0 + e1 * e1 + e2 * e2 < rr * rr;
+        }
+        int c = 0;
+        for (int t = 0; t < nn; ++t) lst[g][c] = t, c += in[t];
+        cnt[g] = c;
+      }
+      for (int g = 0; g < ng; ++g) {
+        const int p0 = 4 * g;
+        ej_real o0[4], o1[4], o2[4];
+        ej_real a0[4], a1[4], a2[4], a3[4], a11[4], a22[4], a33[4], a12[4], a13[4], a23[4];
+        for (int l = 0; l < 4; ++l) {
+          o0[l] = hq0[p0 + l], o1[l] = hq1[p0 + l], o2[l] = hq2[p0 + l];
+          a0[l] = A0[p0 + l], a1[l] = A1[p0 + l], a2[l] = A2[p0 + l], a3[l] = A3[p0 + l];
+          a11[l] = A11[p0 + l], a22[l] = A22[p0 + l], a33[l] = A33[p0 + l];
+          a12[l] = A12[p0 + l], a13[l] = A13[p0 + l], a23[l] = A23[p0 + l];
+        }
+        for (int t = 0; t < cnt[g]; ++t) {
+          const int jn = lst[g][t];
+          const ej_real c0 = cx[jn], c1 = cy[jn], c2 = cz[jn], inv_aj = ia[jn];
+#pragma omp simd
+          for (int l = 0; l < 4; ++l) {
+            const ej_real d0 = c0 + o0[l], d1 = dim > 1 ? c1 + o1[l] : 0.0, d2 = dim > 2 ? c2 + o2[l] : 0.0;
+            const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
+            const ej_real h1 = d0 * inv_l, h2 = d1 * inv_l, h3 = d2 * inv_l;
+            a0[l] += w, a1[l] += w * h1, a11[l] += w * h1 * h1;
+            if (dim > 1) a2[l] += w * h2, a22[l] += w * h2 * h2, a12[l] += w * h1 * h2;
+            if (dim > 2) a3[l] += w * h3, a33[l] += w * h3 * h3, a13[l] += w * h1 * h3, a23[l] += w * h2 * h3;
+          }
+        }
+        for (int l = 0; l < 4; ++l) {
+          A0[p0 + l] = a0[l], A1[p0 + l] = a1[l], A2[p0 + l] = a2[l], A3[p0 + l] = a3[l];
+          A11[p0 + l] = a11[l], A22[p0 + l] = a22[l], A33[p0 + l] = a33[l];
+          A12[p0 + l] = a12[l], A13[p0 + l] = a13[l], A23[p0 + l] = a23[l];
         }
       }
     }
-    /* First row of M^-1 at every face point: the Cholesky of rk_row0_spd (same arithmetic),
-     * written branch-free over the padded positions so that it vectorises; a point with a
-     * pivot below ftol (or not covered) is flagged. */
-    ej_real *b = s->fb + (size_t)id[L] * RK_NF_MAX * 4;
-    int nflag = 0;
-    for (int p = 0; p < 4 * ng; ++p) {
-      const ej_real M[4][4] = {{A0[p], A1[p], A2[p], A3[p]},
-                               {A1[p], A11[p], A12[p], A13[p]},
-                               {A2[p], A12[p], A22[p], A23[p]},
-                               {A3[p], A13[p], A23[p], A33[p]}};
-      ej_real Lc[4][4] = {{0}}, Li[4][4] = {{0}}, r0[4];
-      int ok = A0[p] > 0.0;
-      for (int jj = 0; jj < n; ++jj) {
-        ej_real sj = M[jj][jj];
-        for (int kk = 0; kk < jj; ++kk) sj -= Lc[jj][kk] * Lc[jj][kk];
-        ok &= (sj > ftol * M[jj][jj]) & (sj > 0.0);
-        Lc[jj][jj] = sqrt(sj);
-        const ej_real inv = 1.0 / Lc[jj][jj];
-        for (int ii = jj + 1; ii < n; ++ii) {
-          ej_real t = M[ii][jj];
-          for (int kk = 0; kk < jj; ++kk) t -= Lc[ii][kk] * Lc[jj][kk];
-          Lc[ii][jj] = t * inv;
-        }
-      }
-      for (int jj = 0; jj < n; ++jj) {
-        Li[jj][jj] = 1.0 / Lc[jj][jj];
-        for (int ii = jj + 1; ii < n; ++ii) {
-          ej_real t = 0.0;
-          for (int kk = jj; kk < ii; ++kk) t += Lc[ii][kk] * Li[kk][jj];
-          Li[ii][jj] = -t / Lc[ii][ii];
-        }
-      }
-      for (int ii = 0; ii < 4; ++ii) {
-        ej_real t = 0.0;
-        for (int kk = ii; kk < n; ++kk) t += Li[kk][ii] * Li[kk][0];
-        r0[ii] = ii < n ? t : 0.0;
-      }
-      /* Too few nodes cover a flagged face point (outside a free surface, a corner): b0 = -1
-       * (M^-1 is positive definite so b0 > 0 otherwise) and the node's first order Taylor
-       * expansion is used there, Psi_J(x_f) = Psi_J(x_L) + grad Psi_J(x_L).(x_f - x_L): still
-       * a partition of unity that reproduces linear fields. Padding lanes: zeros. */
-      const int valid = s->gperm[p] >= 0;
-      nflag += valid & !ok;
-      b[p] = ok ? r0[0] : valid ? -1.0 : 0.0;
-      b[RK_NF_MAX + p] = ok ? r0[1] : 0.0;
-      b[2 * RK_NF_MAX + p] = ok ? r0[2] : 0.0;
-      b[3 * RK_NF_MAX + p] = ok ? r0[3] : 0.0;
-    }
-    s->fflag[id[L]] = nflag;
+    s->fflag[id[L]] = rk_face_rows(n, s, ftol, A0, A1, A2, A3, A11, A22, A33, A12, A13, A23,
+                                   s->fb + (size_t)id[L] * RK_NF_MAX * 4);
   }
 }
 
@@ -777,7 +829,7 @@ static inline RK_ALWAYS_INLINE void rk_box_moment_rows(const int dim, const rk_s
  * size). Such a node (flagged face points and node pivot below the face tolerance) takes the
  * constant-basis fallback of an isolated node: no gradient, no stress divergence, counted in
  * rk_fallbacks. A weak node whose face points are all regular keeps its face-point rows. */
-static void rk_taylor_guard(const rk_state *s, rk_args *A, const int32_t *id, ej_range r)
+static void rk_taylor_guard(const rk_state *s, const rk_args *A, const int32_t *id, ej_range r)
 {
   for (ej_idx i = r.begin; i < r.end; ++i) {
     if (A->fb_step[i] != 2) continue;
@@ -792,6 +844,201 @@ static void rk_taylor_guard(const rk_state *s, rk_args *A, const int32_t *id, ej
     }
   }
 }
+
+/* Semi-Lagrangian MSNNI: the face-point moments of node L (as rk_box_moment_rows), their first
+ * rows b, the Taylor guard of the node, and the interpolation of pass 1 in one sweep over the
+ * neighbours: the kernel values phi_J(x_f) of the moment sums are kept on the stack (one per
+ * (neighbour, group) pair and lane) and reused for Psi_J(x_f) = (b0 + b . (x_f - x_J)/l) phi_J
+ * once b is known, instead of a second neighbour sweep that evaluated them again. Every sum is
+ * the same sum in the same order (each face point sums its neighbours in neighbour order; the
+ * node itself enters the interpolation with v_J - v_L = 0): bitwise the same results as the
+ * separate sweeps. Returns 1 with up, um filled, or 0 when the caller interpolates with its own
+ * sweep: more than RK_NB_FUSE neighbours or RK_IT_FUSE pairs (then the moments go through
+ * rk_box_moment_rows). */
+#define RK_NB_FUSE 192  /* neighbours (with the node itself) of the fused sweep (stack scratch) */
+#define RK_IT_FUSE 1024 /* (neighbour, group) pairs whose kernel values it keeps (32 kB) */
+static inline RK_ALWAYS_INLINE int rk_box_fused_node(const int dim, const rk_state *s, const rk_args *A,
+                                                    const ej_real *restrict hb, const int32_t *restrict id, ej_idx L,
+                                                    ej_real up[3][RK_NF_MAX], ej_real um[3][RK_NF_MAX])
+{
+  const ej_real *restrict X = A->X, *restrict ra = A->ra, *restrict v = A->v, *restrict vm = A->vm;
+  const ej_off k0 = A->off[L] - 1, k1 = A->off[L + 1];
+  const int ng = s->ng, n = dim + 1;
+  const ej_real ftol = rk_face_tol(A->tol);
+  const ej_real *restrict q0 = s->gq[0], *restrict q1 = s->gq[1], *restrict q2 = s->gq[2];
+  const ej_range one = {L, L + 1};
+  if (k1 - k0 > RK_NB_FUSE) {
+    rk_box_moment_rows(dim, s, X, ra, hb, id, A->off, A->idx, A->tol, one);
+    rk_taylor_guard(s, A, id, one);
+    return 0;
+  }
+  const int nn = (int)(k1 - k0);
+  const ej_real h = hb[L], hq = 0.25 * h;
+  const ej_real inv_l = 1.0 / ra[L];
+  ej_real cx[RK_NB_FUSE], cy[RK_NB_FUSE], cz[RK_NB_FUSE], ia[RK_NB_FUSE], aa[RK_NB_FUSE];
+  ej_real dv[RK_NB_FUSE][3], dm[RK_NB_FUSE][3];
+  int lst[RK_NF_MAX / 4][RK_NB_FUSE], cnt[RK_NF_MAX / 4];
+  for (int t = 0; t < nn; ++t) {
+    const ej_idx j = t == 0 ? L : A->idx[k0 + t];
+    cx[t] = X[3 * L] - X[3 * j];
+    cy[t] = dim > 1 ? X[3 * L + 1] - X[3 * j + 1] : 0.0;
+    cz[t] = dim > 2 ? X[3 * L + 2] - X[3 * j + 2] : 0.0;
+    aa[t] = ra[j];
+    for (int c = 0; c < 3; ++c) dv[t][c] = v[3 * j + c] - v[3 * L + c], dm[t][c] = vm[3 * j + c] - vm[3 * L + c];
+  }
+  for (int t = 0; t < nn; ++t) ia[t] = 1.0 / aa[t];
+  int nit = 0;
+  for (int g = 0; g < ng; ++g) {
+    const ej_real gx = hq * s->gc[g][0], gy = hq * s->gc[g][1], gz = hq * s->gc[g][2], gr = hq * s->gr[g];
+    int in[RK_NB_FUSE];
+    for (int t = 0; t < nn; ++t) {
+      const ej_real e0 = cx[t] + gx, e1 = cy[t] + gy, e2 = cz[t] + gz, rr = aa[t] + gr;
+      in[t] = e0 * e0 + e1 * e1 + e2 * e2 < rr * rr;
+    }
+    int c = 0;
+    for (int t = 0; t < nn; ++t) lst[g][c] = t, c += in[t];
+    cnt[g] = c;
+    nit += c;
+  }
+  if (nit > RK_IT_FUSE) {
+    rk_box_moment_rows(dim, s, X, ra, hb, id, A->off, A->idx, A->tol, one);
+    rk_taylor_guard(s, A, id, one);
+    return 0;
+  }
+  ej_real A0[RK_NF_MAX] = {0}, A1[RK_NF_MAX] = {0}, A2[RK_NF_MAX] = {0}, A3[RK_NF_MAX] = {0};
+  ej_real A11[RK_NF_MAX] = {0}, A22[RK_NF_MAX] = {0}, A33[RK_NF_MAX] = {0};
+  ej_real A12[RK_NF_MAX] = {0}, A13[RK_NF_MAX] = {0}, A23[RK_NF_MAX] = {0};
+  ej_real hq0[RK_NF_MAX], hq1[RK_NF_MAX], hq2[RK_NF_MAX];
+  for (int p = 0; p < 4 * ng; ++p) hq0[p] = hq * q0[p], hq1[p] = hq * q1[p], hq2[p] = hq * q2[p];
+  ej_real wk[RK_IT_FUSE][4]; /* kernel values by (group, list position) and lane */
+  for (int g = 0, it = 0; g < ng; it += cnt[g], ++g) {
+    const int p0 = 4 * g;
+    ej_real o0[4], o1[4], o2[4];
+    ej_real a0[4], a1[4], a2[4], a3[4], a11[4], a22[4], a33[4], a12[4], a13[4], a23[4];
+    for (int l = 0; l < 4; ++l) {
+      o0[l] = hq0[p0 + l], o1[l] = hq1[p0 + l], o2[l] = hq2[p0 + l];
+      a0[l] = a1[l] = a2[l] = a3[l] = a11[l] = a22[l] = a33[l] = a12[l] = a13[l] = a23[l] = 0.0;
+    }
+    for (int t = 0; t < cnt[g]; ++t) {
+      const int jn = lst[g][t];
+      const ej_real c0 = cx[jn], c1 = cy[jn], c2 = cz[jn], inv_aj = ia[jn];
+      ej_real *restrict wt = wk[it + t];
+#pragma omp simd
+      for (int l = 0; l < 4; ++l) {
+        const ej_real d0 = c0 + o0[l], d1 = dim > 1 ? c1 + o1[l] : 0.0, d2 = dim > 2 ? c2 + o2[l] : 0.0;
+        const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
+        const ej_real h1 = d0 * inv_l, h2 = d1 * inv_l, h3 = d2 * inv_l;
+        wt[l] = w;
+        a0[l] += w, a1[l] += w * h1, a11[l] += w * h1 * h1;
+        if (dim > 1) a2[l] += w * h2, a22[l] += w * h2 * h2, a12[l] += w * h1 * h2;
+        if (dim > 2) a3[l] += w * h3, a33[l] += w * h3 * h3, a13[l] += w * h1 * h3, a23[l] += w * h2 * h3;
+      }
+    }
+    for (int l = 0; l < 4; ++l) {
+      A0[p0 + l] = a0[l], A1[p0 + l] = a1[l], A2[p0 + l] = a2[l], A3[p0 + l] = a3[l];
+      A11[p0 + l] = a11[l], A22[p0 + l] = a22[l], A33[p0 + l] = a33[l];
+      A12[p0 + l] = a12[l], A13[p0 + l] = a13[l], A23[p0 + l] = a23[l];
+    }
+  }
+  ej_real *row = s->fb + (size_t)id[L] * RK_NF_MAX * 4;
+  s->fflag[id[L]] = rk_face_rows(n, s, ftol, A0, A1, A2, A3, A11, A22, A33, A12, A13, A23, row);
+  rk_taylor_guard(s, A, id, one);
+  /* Interpolation (pass 1, rk_box_grad_rows), b scaled by 1/l as there. A flagged face point
+   * (b0 = -1 in the row) takes the node's Taylor form with the pieces of rk_box_grad_rows; its
+   * group sums every neighbour (the Taylor term does not vanish outside the kernel supports),
+   * with the kept kernel value where the ball test passed and 0 (what phi gives) elsewhere. */
+  const bool taylor = s->fflag[id[L]] > 0;
+  ej_real lnn[RK_NB_FUSE], gnn[RK_NB_FUSE][3];
+  if (taylor)
+    for (int t = 0; t < nn; ++t) {
+      const ej_real c0 = cx[t], c1 = cy[t], c2 = cz[t], aj = aa[t], inv_aj = ia[t];
+      const ej_real r2c = c0 * c0 + c1 * c1 + c2 * c2;
+      lnn[t] = gnn[t][0] = gnn[t][1] = gnn[t][2] = 0.0;
+      if (t > 0 && r2c < aj * aj) {
+        const ej_real hv[3] = {c0 * inv_l, c1 * inv_l, c2 * inv_l};
+        const ej_real wn = rk_phi(sqrt(r2c) * inv_aj);
+        ej_real ln = 0.0, gn[3] = {0, 0, 0};
+        rk_taylor_parts(dim, A->m0[L], A->m1 + 3 * L, A->m2 + 6 * L, hv, inv_l, &ln, gn);
+        lnn[t] = ln * wn, gnn[t][0] = gn[0] * wn * hq, gnn[t][1] = gn[1] * wn * hq, gnn[t][2] = gn[2] * wn * hq;
+      }
+    }
+  for (int g = 0, it = 0; g < ng; it += cnt[g], ++g) {
+    const int p0 = 4 * g;
+    ej_real o0[4], o1[4], o2[4], e0[4], e1[4], e2[4], e3[4], ef[4], r0[4], r1[4], r2[4];
+    ej_real u0[4], u1[4], u2[4], n0[4], n1[4], n2[4];
+    int gf = 0;
+    for (int l = 0; l < 4; ++l) {
+      const int f = p0 + l;
+      const bool flg = row[f] < 0.0;
+      gf |= flg;
+      o0[l] = hq0[f], o1[l] = hq1[f], o2[l] = hq2[f];
+      r0[l] = q0[f], r1[l] = q1[f], r2[l] = q2[f];
+      e0[l] = flg ? 0.0 : row[f], ef[l] = flg ? 1.0 : 0.0;
+      e1[l] = row[RK_NF_MAX + f] * inv_l, e2[l] = row[2 * RK_NF_MAX + f] * inv_l, e3[l] = row[3 * RK_NF_MAX + f] * inv_l;
+      u0[l] = u1[l] = u2[l] = n0[l] = n1[l] = n2[l] = 0.0;
+    }
+    if (!(taylor && gf)) {
+      for (int t = 0; t < cnt[g]; ++t) {
+        const int jn = lst[g][t];
+        const ej_real c0 = cx[jn], c1 = cy[jn], c2 = cz[jn];
+        const ej_real dv0 = dv[jn][0], dv1 = dv[jn][1], dv2 = dv[jn][2];
+        const ej_real dm0 = dm[jn][0], dm1 = dm[jn][1], dm2 = dm[jn][2];
+#pragma omp simd
+        for (int l = 0; l < 4; ++l) {
+          const ej_real d0 = c0 + o0[l], d1 = dim > 1 ? c1 + o1[l] : 0.0, d2 = dim > 2 ? c2 + o2[l] : 0.0;
+          const ej_real psi =
+              (e0[l] + e1[l] * d0 + (dim > 1 ? e2[l] * d1 : 0.0) + (dim > 2 ? e3[l] * d2 : 0.0)) * wk[it + t][l];
+          u0[l] += psi * dv0, u1[l] += psi * dv1, u2[l] += psi * dv2;
+          n0[l] += psi * dm0, n1[l] += psi * dm1, n2[l] += psi * dm2;
+        }
+      }
+    } else {
+      static const ej_real zero4[4] = {0.0, 0.0, 0.0, 0.0};
+      int q = cnt[g] > 0 && lst[g][0] == 0; /* position in the group's list (the node itself skipped) */
+      for (int t = 1; t < nn; ++t) {
+        const int hit = q < cnt[g] && lst[g][q] == t;
+        const ej_real *restrict wl = hit ? wk[it + q] : zero4;
+        q += hit;
+        const ej_real c0 = cx[t], c1 = cy[t], c2 = cz[t];
+        const ej_real ln = lnn[t], gn0 = gnn[t][0], gn1 = gnn[t][1], gn2 = gnn[t][2];
+        const ej_real dv0 = dv[t][0], dv1 = dv[t][1], dv2 = dv[t][2];
+        const ej_real dm0 = dm[t][0], dm1 = dm[t][1], dm2 = dm[t][2];
+#pragma omp simd
+        for (int l = 0; l < 4; ++l) {
+          const ej_real d0 = c0 + o0[l], d1 = dim > 1 ? c1 + o1[l] : 0.0, d2 = dim > 2 ? c2 + o2[l] : 0.0;
+          ej_real psi = (e0[l] + e1[l] * d0 + (dim > 1 ? e2[l] * d1 : 0.0) + (dim > 2 ? e3[l] * d2 : 0.0)) * wl[l];
+          psi += ef[l] * (ln - gn0 * r0[l] - gn1 * r1[l] - gn2 * r2[l]);
+          u0[l] += psi * dv0, u1[l] += psi * dv1, u2[l] += psi * dv2;
+          n0[l] += psi * dm0, n1[l] += psi * dm1, n2[l] += psi * dm2;
+        }
+      }
+    }
+    for (int l = 0; l < 4; ++l) {
+      const int f = p0 + l;
+      up[0][f] = u0[l], up[1][f] = u1[l], up[2][f] = u2[l];
+      um[0][f] = n0[l], um[1][f] = n1[l], um[2][f] = n2[l];
+    }
+  }
+  return 1;
+}
+
+/* Out of line per dimension: inlined into the large pass-1 function, GCC left its lane loops
+ * scalar. */
+#if defined(__GNUC__)
+#define RK_NOINLINE __attribute__((noinline))
+#else
+#define RK_NOINLINE
+#endif
+#define RK_FUSED_DIM(D)                                                                                          \
+  static RK_NOINLINE int rk_box_fused_node##D(const rk_state *s, const rk_args *A, const ej_real *hb,           \
+                                              const int32_t *id, ej_idx L, ej_real up[3][RK_NF_MAX],            \
+                                              ej_real um[3][RK_NF_MAX])                                         \
+  {                                                                                                              \
+    return rk_box_fused_node(D, s, A, hb, id, L, up, um);                                                        \
+  }
+RK_FUSED_DIM(1)
+RK_FUSED_DIM(2)
+RK_FUSED_DIM(3)
 
 static ej_err rk_pass_moment(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
 {
@@ -835,6 +1082,9 @@ static ej_err rk_pass_moment(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_ran
       sig[3 * i] = sig[3 * i + 1] = sig[3 * i + 2] = 1.0;
       hb[i] = rk_hbox(s, m[i], rho[i], vol0[i]);
     }
+    /* Semi-Lagrangian: the face-point moments, rows and the Taylor guard are computed in pass 1
+     * together with the interpolation (rk_box_fused_node); weak nodes stay marked until then. */
+    if (!s->lagrangian) return EJ_OK;
     switch (s->dim) {
     case 1: rk_box_moment_rows(1, s, A.X, A.ra, hb, id, A.off, A.idx, A.tol, r); break;
     case 2: rk_box_moment_rows(2, s, A.X, A.ra, hb, id, A.off, A.idx, A.tol, r); break;
@@ -920,7 +1170,7 @@ static inline RK_ALWAYS_INLINE void rk_grad_rows(const int dim, const bool lag, 
  * G_xi - G_L per sub-box (block scratch, sub-box stabilisation) and, Lagrangian, F. */
 static inline RK_ALWAYS_INLINE void rk_box_grad_rows(const int dim, const bool lag, const rk_state *s,
                                                     const rk_args *A, const ej_real *restrict hb,
-                                                    const int32_t *restrict id, const int32_t *restrict fbs,
+                                                    const int32_t *restrict id, const int32_t *fbs,
                                                     ej_range rg, ej_real *restrict Gp, ej_real *restrict Gm,
                                                     ej_real *restrict Fx, ej_real *restrict dGp,
                                                     ej_real *restrict dGm)
@@ -933,6 +1183,12 @@ static inline RK_ALWAYS_INLINE void rk_box_grad_rows(const int dim, const bool l
     const ej_idx kb = L - rg.begin;
     const ej_real h = hb[L], hq = 0.25 * h;
     const ej_real inv_l = 1.0 / ra[L];
+    ej_real up[3][RK_NF_MAX] = {{0}}, um[3][RK_NF_MAX] = {{0}}, ux[3][RK_NF_MAX] = {{0}};
+    /* Semi-Lagrangian: face moments, rows, guard (and mostly the interpolation) here. */
+    const int fused = lag        ? 0
+                      : dim == 1 ? rk_box_fused_node1(s, A, hb, id, L, up, um)
+                      : dim == 2 ? rk_box_fused_node2(s, A, hb, id, L, up, um)
+                                 : rk_box_fused_node3(s, A, hb, id, L, up, um);
     const ej_real *row = s->fb + (size_t)id[L] * RK_NF_MAX * 4;
     const bool taylor = s->fflag[id[L]] > 0;
     /* Local copies by padded position p: b scaled by 1/l; a flagged face has b = 0 and fl = 1
@@ -953,21 +1209,25 @@ static inline RK_ALWAYS_INLINE void rk_box_grad_rows(const int dim, const bool l
       b0[p] = flg ? 0.0 : row[p];
       b1[p] = row[RK_NF_MAX + p] * inv_l, b2[p] = row[2 * RK_NF_MAX + p] * inv_l, b3[p] = row[3 * RK_NF_MAX + p] * inv_l;
     }
-    ej_real up[3][RK_NF_MAX] = {{0}}, um[3][RK_NF_MAX] = {{0}}, ux[3][RK_NF_MAX] = {{0}};
-    /* Chunks of neighbours (the self term has v_J - v_L = 0): list the (neighbour, group)
-     * pairs whose ball test passes (or whose group holds a flagged face of a Taylor node),
-     * without branches, then evaluate them in neighbour order (as rk_box_moment_rows). */
-    for (ej_off k = A->off[L]; k < A->off[L + 1];) {
-      ej_real cc[RK_CHUNK][3], ia[RK_CHUNK], dv[RK_CHUNK][3], dm[RK_CHUNK][3], dx[RK_CHUNK][3];
+    ej_real hq0[RK_NF_MAX], hq1[RK_NF_MAX], hq2[RK_NF_MAX];
+    for (int p = 0; p < 4 * ng; ++p) hq0[p] = hq * q0[p], hq1[p] = hq * q1[p], hq2[p] = hq * q2[p];
+    /* Chunks of neighbours (the self term has v_J - v_L = 0): one list per group of the
+     * neighbours whose ball test passes (or all of them for a group holding a flagged face of
+     * a Taylor node), then per group its 4 lanes accumulated in registers over the list
+     * (as rk_box_moment_rows: each face point sums its neighbours in neighbour order). */
+    for (ej_off k = fused ? A->off[L + 1] : A->off[L]; k < A->off[L + 1];) {
+      ej_real cx[RK_CHUNK], cy[RK_CHUNK], cz[RK_CHUNK], ia[RK_CHUNK], aa[RK_CHUNK];
+      ej_real dv[RK_CHUNK][3], dm[RK_CHUNK][3], dx[RK_CHUNK][3];
       ej_real lnn[RK_CHUNK], gnn[RK_CHUNK][3];
-      int item[RK_CHUNK * (RK_NF_MAX / 4)], nit = 0, nn = 0;
+      int lst[RK_NF_MAX / 4][RK_CHUNK], cnt[RK_NF_MAX / 4];
+      int nn = 0;
       for (; k < A->off[L + 1] && nn < RK_CHUNK; ++k, ++nn) {
         const ej_idx j = A->idx[k];
         ej_real c0 = X[3 * L] - X[3 * j], c1 = 0.0, c2 = 0.0;
         if (dim > 1) c1 = X[3 * L + 1] - X[3 * j + 1];
         if (dim > 2) c2 = X[3 * L + 2] - X[3 * j + 2];
         const ej_real aj = ra[j], inv_aj = 1.0 / aj;
-        cc[nn][0] = c0, cc[nn][1] = c1, cc[nn][2] = c2, ia[nn] = inv_aj;
+        cx[nn] = c0, cy[nn] = c1, cz[nn] = c2, ia[nn] = inv_aj, aa[nn] = aj;
         for (int c = 0; c < 3; ++c) {
           dv[nn][c] = v[3 * j + c] - v[3 * L + c];
           dm[nn][c] = vm[3 * j + c] - vm[3 * L + c];
@@ -984,27 +1244,55 @@ static inline RK_ALWAYS_INLINE void rk_box_grad_rows(const int dim, const bool l
             lnn[nn] = ln * wn, gnn[nn][0] = gn[0] * wn * hq, gnn[nn][1] = gn[1] * wn * hq, gnn[nn][2] = gn[2] * wn * hq;
           }
         }
-        for (int g = 0; g < ng; ++g) {
-          const ej_real e0 = c0 + gcx[g][0], e1 = c1 + gcx[g][1], e2 = c2 + gcx[g][2], rr = aj + grx[g];
-          item[nit] = 16 * nn + g;
-          nit += (taylor & gfl[g]) | (e0 * e0 + e1 * e1 + e2 * e2 < rr * rr);
-        }
       }
-      for (int t = 0; t < nit; ++t) {
-        const int jn = item[t] >> 4, g = item[t] & 15;
-        const ej_real c0 = cc[jn][0], c1 = cc[jn][1], c2 = cc[jn][2], inv_aj = ia[jn];
-        const ej_real ln = lnn[jn], gn0 = gnn[jn][0], gn1 = gnn[jn][1], gn2 = gnn[jn][2];
-        const ej_real dv0 = dv[jn][0], dv1 = dv[jn][1], dv2 = dv[jn][2];
-        const ej_real dm0 = dm[jn][0], dm1 = dm[jn][1], dm2 = dm[jn][2];
-        const ej_real dx0 = dx[jn][0], dx1 = dx[jn][1], dx2 = dx[jn][2];
-        for (int f = 4 * g; f < 4 * g + 4; ++f) { /* f: padded position */
-          const ej_real d0 = c0 + hq * q0[f], d1 = dim > 1 ? c1 + hq * q1[f] : 0.0, d2 = dim > 2 ? c2 + hq * q2[f] : 0.0;
-          const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
-          ej_real psi = (b0[f] + b1[f] * d0 + (dim > 1 ? b2[f] * d1 : 0.0) + (dim > 2 ? b3[f] * d2 : 0.0)) * w;
-          if (taylor) psi += fl[f] * (ln - gn0 * q0[f] - gn1 * q1[f] - gn2 * q2[f]);
-          up[0][f] += psi * dv0, up[1][f] += psi * dv1, up[2][f] += psi * dv2;
-          um[0][f] += psi * dm0, um[1][f] += psi * dm1, um[2][f] += psi * dm2;
-          if (lag) ux[0][f] += psi * dx0, ux[1][f] += psi * dx1, ux[2][f] += psi * dx2;
+      for (int g = 0; g < ng; ++g) {
+        const ej_real gx = gcx[g][0], gy = gcx[g][1], gz = gcx[g][2], gr = grx[g];
+        const int all = taylor & gfl[g];
+        int in[RK_CHUNK];
+        for (int t = 0; t < nn; ++t) {
+          const ej_real e0 = cx[t] + gx, e1 = cy[t] + gy, e2 = cz[t] + gz, rr = aa[t] + gr;
+          in[t] = all | (e0 * e0 + e1 * e1 + e2 * e2 < rr * rr);
+        }
+        int c = 0;
+        for (int t = 0; t < nn; ++t) lst[g][c] = t, c += in[t];
+        cnt[g] = c;
+      }
+      for (int g = 0; g < ng; ++g) {
+        const int p0 = 4 * g;
+        ej_real o0[4], o1[4], o2[4], e0[4], e1[4], e2[4], e3[4], ef[4], r0[4], r1[4], r2[4];
+        ej_real u0[4], u1[4], u2[4], n0[4], n1[4], n2[4], x0[4], x1[4], x2[4];
+        for (int l = 0; l < 4; ++l) {
+          const int f = p0 + l;
+          o0[l] = hq0[f], o1[l] = hq1[f], o2[l] = hq2[f];
+          e0[l] = b0[f], e1[l] = b1[f], e2[l] = b2[f], e3[l] = b3[f], ef[l] = fl[f];
+          r0[l] = q0[f], r1[l] = q1[f], r2[l] = q2[f];
+          u0[l] = up[0][f], u1[l] = up[1][f], u2[l] = up[2][f];
+          n0[l] = um[0][f], n1[l] = um[1][f], n2[l] = um[2][f];
+          x0[l] = ux[0][f], x1[l] = ux[1][f], x2[l] = ux[2][f];
+        }
+        for (int t = 0; t < cnt[g]; ++t) {
+          const int jn = lst[g][t];
+          const ej_real c0 = cx[jn], c1 = cy[jn], c2 = cz[jn], inv_aj = ia[jn];
+          const ej_real ln = lnn[jn], gn0 = gnn[jn][0], gn1 = gnn[jn][1], gn2 = gnn[jn][2];
+          const ej_real dv0 = dv[jn][0], dv1 = dv[jn][1], dv2 = dv[jn][2];
+          const ej_real dm0 = dm[jn][0], dm1 = dm[jn][1], dm2 = dm[jn][2];
+          const ej_real dx0 = dx[jn][0], dx1 = dx[jn][1], dx2 = dx[jn][2];
+#pragma omp simd
+          for (int l = 0; l < 4; ++l) {
+            const ej_real d0 = c0 + o0[l], d1 = dim > 1 ? c1 + o1[l] : 0.0, d2 = dim > 2 ? c2 + o2[l] : 0.0;
+            const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
+            ej_real psi = (e0[l] + e1[l] * d0 + (dim > 1 ? e2[l] * d1 : 0.0) + (dim > 2 ? e3[l] * d2 : 0.0)) * w;
+            if (taylor) psi += ef[l] * (ln - gn0 * r0[l] - gn1 * r1[l] - gn2 * r2[l]);
+            u0[l] += psi * dv0, u1[l] += psi * dv1, u2[l] += psi * dv2;
+            n0[l] += psi * dm0, n1[l] += psi * dm1, n2[l] += psi * dm2;
+            if (lag) x0[l] += psi * dx0, x1[l] += psi * dx1, x2[l] += psi * dx2;
+          }
+        }
+        for (int l = 0; l < 4; ++l) {
+          const int f = p0 + l;
+          up[0][f] = u0[l], up[1][f] = u1[l], up[2][f] = u2[l];
+          um[0][f] = n0[l], um[1][f] = n1[l], um[2][f] = n2[l];
+          ux[0][f] = x0[l], ux[1][f] = x1[l], ux[2][f] = x2[l];
         }
       }
     }
@@ -1273,8 +1561,12 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
                .m1 = ej_set_field(set, "rk_m1"),
                .m2 = ej_set_field(set, "rk_m2"),
                .gv = ej_set_field(set, "rk_gv"),
+               .rk_s = ej_set_field(set, "rk_s"),
+               .fb = ej_set_field_int(set, "rk_fallbacks"),
+               .fb_step = ej_set_field_int(set, "rk_fb_step"),
                .off = nbr->off,
                .idx = nbr->idx,
+               .tol = s->cfg.rcond_min,
                .lag = s->lagrangian};
   ej_real *rho = ej_set_field(set, "rho"), *e = ej_set_field(set, "e"), *p = ej_set_field(set, "p");
   ej_real *c = ej_set_field(set, "c"), *sg = ej_set_field(set, "stress"), *dd = ej_set_field(set, "rk_d");
@@ -1284,7 +1576,8 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
   ej_real *F = ej_set_field(set, "F"), *P = ej_set_field(set, "rk_P");
   int32_t *failed = ej_set_field_int(set, "failed");
   const ej_real *m = ej_set_field(set, "m");
-  EJ_ENSURE(A.X && A.x && A.v && A.vm && A.ra && A.m0 && A.m1 && A.m2 && A.gv && rho && e && p && c && sg && dd && rho_dot &&
+  EJ_ENSURE(A.X && A.x && A.v && A.vm && A.ra && A.m0 && A.m1 && A.m2 && A.gv && A.rk_s && A.fb && A.fb_step && rho && e &&
+                p && c && sg && dd && rho_dot &&
                 e_dot && w_dot && wpl_inc && wpl && failed && m && (!s->lagrangian || (F && P)),
             EJ_ERR_INTERNAL, "set '%s': rkpm fields missing", s->set_name);
   const ej_real dt = ej_set_dt(set);
@@ -1537,6 +1830,8 @@ static inline RK_ALWAYS_INLINE ej_err rk_box_force_rows(const int dim, const rk_
   const ej_real *restrict X = A->X, *restrict ra = A->ra, *restrict m = A->m;
   const int ng = s->ng;
   const ej_real *restrict q0 = s->gq[0], *restrict q1 = s->gq[1], *restrict q2 = s->gq[2];
+  ej_real gc0[RK_NF_MAX / 4], gc1[RK_NF_MAX / 4], gc2[RK_NF_MAX / 4], gr0[RK_NF_MAX / 4];
+  for (int g = 0; g < ng; ++g) gc0[g] = s->gc[g][0], gc1[g] = s->gc[g][1], gc2[g] = s->gc[g][2], gr0[g] = s->gr[g];
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
     const ej_real ai = ra[i], ai2 = ai * ai, inv_ai = 1.0 / ai;
     ej_real fo[3] = {0, 0, 0};
@@ -1595,15 +1890,18 @@ static inline RK_ALWAYS_INLINE ej_err rk_box_force_rows(const int dim, const rk_
           }
           Bp[nn] = gb, Tp[nn] = gb + 4 * RK_NF_MAX;
         }
+        int in[RK_NF_MAX / 4]; /* ball tests over the groups (SoA copies: vectorised) */
         for (int g = 0; g < ng; ++g) {
-          const ej_real e0 = c0 + hq * s->gc[g][0], e1 = c1 + hq * s->gc[g][1], e2 = c2 + hq * s->gc[g][2];
-          const ej_real rr = ai + hq * s->gr[g];
-          int a = e0 * e0 + e1 * e1 + e2 * e2 < rr * rr;
-          if (taylor)
-            for (int p = 4 * g; p < 4 * g + 4; ++p) a |= Bp[nn][p] < 0.0;
-          item[nit] = 16 * nn + g;
-          nit += a;
+          const ej_real e0 = c0 + hq * gc0[g], e1 = c1 + hq * gc1[g], e2 = c2 + hq * gc2[g];
+          const ej_real rr = ai + hq * gr0[g];
+          in[g] = e0 * e0 + e1 * e1 + e2 * e2 < rr * rr;
         }
+        if (taylor)
+          for (int g = 0; g < ng; ++g) {
+            const ej_real *bg = Bp[nn] + 4 * g;
+            in[g] |= (bg[0] < 0.0) | (bg[1] < 0.0) | (bg[2] < 0.0) | (bg[3] < 0.0);
+          }
+        for (int g = 0; g < ng; ++g) item[nit] = 16 * nn + g, nit += in[g];
       }
       for (int t = 0; t < nit; ++t) {
         const int jn = item[t] >> 4, g = item[t] & 15;
