@@ -141,7 +141,8 @@ typedef struct pd_state {
    * (family pairs are tested in the bond loop) */
   int64_t epoch;  /* steps completed (post_step of the chunk that starts the set)        */
   int64_t due_t;  /* epoch of the step whose pass 1 rebuilds the list (written in pass 0) */
-  int64_t grid_t; /* epoch the grid was last built in (in the critical section)          */
+  int64_t grid_t; /* epoch the grid was last built in (in the critical section; atomic)  */
+  int64_t claim_t; /* epoch whose grid build a chunk has claimed (pd_pass1; atomic)      */
   ej_real rc, skin;
   ej_idx n_all_cap;
   ej_real *xcb;     /* [n] positions at the last contact build */
@@ -271,6 +272,7 @@ static ej_err pd_create(const void *config, ej_set *set, const ej_model *model, 
   s->skin = cfg->contact_skin * s->lc;
   s->rc = 1.35 * s->lc + s->skin;
   s->grid_t = -1; /* no grid yet */
+  s->claim_t = -1;
   if (!(s->lc > 0) || !isfinite(s->lc)) {
     pd_destroy(s);
     EJ_FAIL(EJ_ERR_INPUT, "set '%s': pd needs a lattice spacing (give 'lattice_spacing')", name);
@@ -683,7 +685,10 @@ static ej_err pd_contact_ready(pd_state *s, ej_set *set, ej_range r)
   {
     if (s->grid_t != t) {
       rc = pd_build_grid(s, set);
-      if (rc == EJ_OK) s->grid_t = t;
+      if (rc == EJ_OK) {
+#pragma omp atomic write seq_cst
+        s->grid_t = t;
+      }
     }
   }
   if (rc != EJ_OK) EJ_FAIL(rc, NULL);
@@ -1007,9 +1012,70 @@ __attribute__((noinline)) static ej_err pd_contacts(const pd_state *s, const pd_
   return EJ_OK;
 }
 
+/* What pass 1 keeps of a row between its bond sweep and its contacts. */
+typedef struct pd_rowres {
+  pd_row o;
+  ej_real e_brk, f_brk[3];
+  int nbroken;
+} pd_rowres;
+
+/* The bond part of row i: forces, energy and stretch extremes, then the breaks settled. */
+static inline void pd_row_bonds(const pd_state *s, const pd_args *A, ej_idx i, bool lps, bool fail, pd_rowres *w)
+{
+  w->e_brk = 0, w->f_brk[0] = w->f_brk[1] = w->f_brk[2] = 0, w->nbroken = 0;
+  /* specialised calls: the vector loops carry no test of fail */
+  if (lps) {
+    if (fail) pd_row_lps(s, A, i, true, &w->o);
+    else pd_row_lps(s, A, i, false, &w->o);
+  } else {
+#if PD_AVX2
+    if (s->xq) {
+      if (fail) pd_row_pmb_avx2(A, s->xq, i, true, &w->o);
+      else pd_row_pmb_avx2(A, s->xq, i, false, &w->o);
+    } else
+#endif
+    if (fail) pd_row_pmb(A, i, true, &w->o);
+    else pd_row_pmb(A, i, false, &w->o);
+  }
+  if (w->o.nbrk > 0.0) pd_settle(s, A, i, &w->o, &w->e_brk, &w->nbroken, w->f_brk);
+}
+
+/* The rest of row i: its contacts (the list must be ready), then a, s0_new, e, w_frac, f_brk. */
+static inline ej_err pd_row_finish(const pd_state *s, const pd_args *A, ej_idx i, bool contact, const pd_rowres *w)
+{
+  const ej_real s00 = s->cfg.s00, alpha = s->cfg.alpha;
+  ej_real fc[3] = {0, 0, 0}, en = w->o.en;
+  if (contact) {
+    ej_real ec = 0;
+    EJ_TRY(pd_contacts(s, A, i, w->o.hits > 0.0, fc, &ec));
+    en += ec;
+  }
+  /* a = F/m with F = V_i f: the force density over the density */
+  const ej_real inv_rho = A->vol0[i] / A->m[i];
+  A->a[3 * i] += (w->o.f[0] + fc[0]) * inv_rho;
+  A->a[3 * i + 1] += (w->o.f[1] + fc[1]) * inv_rho;
+  A->a[3 * i + 2] += (w->o.f[2] + fc[2]) * inv_rho;
+  /* s0_i = max_j (s00 - alpha s_ij) over the bonds intact before this step's breaks, i.e.
+   * s00 - alpha s_min for alpha >= 0 (rounding is monotone, so the same double) */
+  A->s0n[i] = !(w->o.smin <= w->o.smax) ? DBL_MAX : alpha >= 0.0 ? s00 - alpha * w->o.smin : s00 - alpha * w->o.smax;
+  A->e[i] = en * inv_rho;
+  if (w->nbroken) {
+    A->wf[i] += w->e_brk * inv_rho;
+    A->fb[3 * i] = w->f_brk[0], A->fb[3 * i + 1] = w->f_brk[1], A->fb[3 * i + 2] = w->f_brk[2];
+    A->nbk[i] += w->nbroken;
+  }
+  return EJ_OK;
+}
+
+#define PD_SPLIT_ROWS 256 /* rows per block of a chunk whose contacts wait for the grid */
+
+/* Pass 1. On a step that rebuilds the contact list, the first chunk to arrive claims the grid
+ * build and does it at once (pd_contact_ready); a chunk that arrives while it is being built
+ * sweeps the bonds of its rows first (blocks of PD_SPLIT_ROWS rows, results kept on the stack)
+ * and only then waits for the grid, so the other threads work while one builds. Every row sees
+ * the same operations either way: the results do not depend on who builds. */
 static ej_err pd_pass1(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
 {
-  if (s->cfg.contact) EJ_TRY(pd_contact_ready(s, set, r));
   pd_args A = {.x = ej_set_field(set, "x"), .m = ej_set_field(set, "m"), .vol0 = ej_set_field(set, "vol0"),
                .s0 = ej_set_field(set, "s0"), .theta = ej_set_field(set, "theta"), .im = ej_set_field(set, "lps_im"),
                .tm = ej_set_field(set, "lps_tm"), .a = ej_set_field(set, "a"), .s0n = ej_set_field(set, "s0_new"),
@@ -1020,46 +1086,39 @@ static ej_err pd_pass1(pd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
   EJ_ENSURE(A.x && A.m && A.vol0 && A.s0 && A.a && A.s0n && A.e && A.wf && A.fb && A.nbk, EJ_ERR_INTERNAL,
             "set '%s': pd fields missing", s->set_name);
   const bool lps = s->cfg.model == PD_LPS, contact = s->cfg.contact, fail = s->failure;
-  const ej_real s00 = s->cfg.s00, alpha = s->cfg.alpha;
-  for (ej_idx i = r.begin; i < r.end; ++i) {
-    pd_row o;
-    ej_real fc[3] = {0, 0, 0}, e_brk = 0, f_brk[3] = {0, 0, 0};
-    int nbroken = 0;
-    /* specialised calls: the vector loops carry no test of fail */
-    if (lps) {
-      if (fail) pd_row_lps(s, &A, i, true, &o);
-      else pd_row_lps(s, &A, i, false, &o);
-    } else {
-#if PD_AVX2
-      if (s->xq) {
-        if (fail) pd_row_pmb_avx2(&A, s->xq, i, true, &o);
-        else pd_row_pmb_avx2(&A, s->xq, i, false, &o);
-      } else
-#endif
-      if (fail) pd_row_pmb(&A, i, true, &o);
-      else pd_row_pmb(&A, i, false, &o);
+  bool split = false;
+  if (contact) {
+    const int64_t t = s->epoch;
+    int64_t due_t, grid_t;
+#pragma omp atomic read seq_cst
+    due_t = s->due_t;
+#pragma omp atomic read seq_cst
+    grid_t = s->grid_t;
+    if (due_t == t && grid_t != t) {
+      int64_t old;
+#pragma omp atomic capture seq_cst
+      {
+        old = s->claim_t;
+        s->claim_t = t;
+      }
+      split = old == t; /* another chunk has claimed this step's build */
     }
-    if (o.nbrk > 0.0) pd_settle(s, &A, i, &o, &e_brk, &nbroken, f_brk);
-    ej_real en = o.en;
-    if (contact) {
-      ej_real ec = 0;
-      EJ_TRY(pd_contacts(s, &A, i, o.hits > 0.0, fc, &ec));
-      en += ec;
+  }
+  if (!split) {
+    if (contact) EJ_TRY(pd_contact_ready(s, set, r));
+    for (ej_idx i = r.begin; i < r.end; ++i) {
+      pd_rowres w;
+      pd_row_bonds(s, &A, i, lps, fail, &w);
+      EJ_TRY(pd_row_finish(s, &A, i, contact, &w));
     }
-    /* a = F/m with F = V_i f: the force density over the density */
-    const ej_real inv_rho = A.vol0[i] / A.m[i];
-    A.a[3 * i] += (o.f[0] + fc[0]) * inv_rho;
-    A.a[3 * i + 1] += (o.f[1] + fc[1]) * inv_rho;
-    A.a[3 * i + 2] += (o.f[2] + fc[2]) * inv_rho;
-    /* s0_i = max_j (s00 - alpha s_ij) over the bonds intact before this step's breaks, i.e.
-     * s00 - alpha s_min for alpha >= 0 (rounding is monotone, so the same double) */
-    A.s0n[i] = !(o.smin <= o.smax) ? DBL_MAX : alpha >= 0.0 ? s00 - alpha * o.smin : s00 - alpha * o.smax;
-    A.e[i] = en * inv_rho;
-    if (nbroken) {
-      A.wf[i] += e_brk * inv_rho;
-      A.fb[3 * i] = f_brk[0], A.fb[3 * i + 1] = f_brk[1], A.fb[3 * i + 2] = f_brk[2];
-      A.nbk[i] += nbroken;
-    }
+    return EJ_OK;
+  }
+  pd_rowres w[PD_SPLIT_ROWS];
+  for (ej_idx b = r.begin; b < r.end; b += PD_SPLIT_ROWS) {
+    const ej_idx e = r.end - b > PD_SPLIT_ROWS ? b + PD_SPLIT_ROWS : r.end;
+    for (ej_idx i = b; i < e; ++i) pd_row_bonds(s, &A, i, lps, fail, &w[i - b]);
+    if (b == r.begin) EJ_TRY(pd_contact_ready(s, set, r)); /* waits for the build, searches r's rows */
+    for (ej_idx i = b; i < e; ++i) EJ_TRY(pd_row_finish(s, &A, i, contact, &w[i - b]));
   }
   return EJ_OK;
 }
