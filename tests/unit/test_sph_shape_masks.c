@@ -1,13 +1,14 @@
-/* sph, gradient: shape_tensor: the entry masks of the shape pass (plugins/methods/sph/README.md
- * "Performance"). The shape pass marks, per row of at most 64 x SPH_KEEP_WORDS = 512 list entries,
- * the entries inside 2 hbar; the pair pass then visits only those (whole mask words per block of
- * up to 128 pairs). A row with more entries is visited in full, every entry tested. Both paths
- * must give the same rates: the same cloud is evaluated once with a small skin (every row <= 512
- * entries: masked) and once with a skin larger than the box (every row 999 entries: unmasked),
- * for h_factor 1.2 (~60 pairs, one block) and 2.0 (up to ~270 pairs: several blocks, several
- * words), and for the three instantiations of the pair loop (symmetric form with the default
- * options, symmetric form with shape_viscosity: shape, paper form). The sums are taken in the
- * same list order but in different blocks, so they agree to round-off, not bitwise. */
+/* sph, gradient: shape_tensor: the kept-neighbour slots of the shape pass (plugins/methods/sph/README.md
+ * "Passes"; they replaced the entry bit masks on 2026-11-28, hence the file name). The shape pass
+ * stores, per row of at most 512 list entries with at most SPH_KEPT_MAX = 128 of them inside 2 hbar,
+ * the indices of those entries; the pair pass then visits only those (blocks of up to 128 pairs). Any
+ * other row is compacted again in the pair pass, every entry tested. Both paths must give the same
+ * rates: the same cloud is evaluated once with a small skin (every row <= 512 entries) and once with
+ * a skin larger than the box (every row 999 entries: compacted in the pair pass), for h_factor 1.2
+ * (~60 pairs, one block, slots) and 2.0 (up to ~270 pairs: several blocks, more than a slot holds),
+ * and for the three instantiations of the pair loop (symmetric form with the default options,
+ * symmetric form with shape_viscosity: shape, paper form). The sums are taken in the same list
+ * order but in different blocks, so they agree to round-off, not bitwise. */
 #include <check.h>
 #include <math.h>
 #include <stdlib.h>

@@ -189,40 +189,21 @@ typedef struct sph_state {
   const ej_material *mat; /* strength model (strength: true), else NULL */
   ej_real K, G;           /* its initial moduli */
   const char *set_name;
-  /* gradient: shape_tensor: per owned row, bit k of keep[SPH_KEEP_WORDS * i + k / 64] set when list
-   * entry off[i] + k lies inside 2 hbar (written by the shape pass, read by the pair pass of the
-   * same step, so the pair pass visits only those entries); allocated in setup for keep_cap rows */
-  uint64_t *keep;
-  ej_idx keep_cap;
+  /* gradient: shape_tensor: per owned row i, the neighbours inside 2 hbar in list order,
+   * kept[SPH_KEPT_MAX * i + 0 .. kept_n[i] - 1] (written by the shape pass's compaction gather, read by
+   * the pair pass of the same step, which then neither tests nor walks the list); kept_n[i] = -1 for a
+   * row with more than SPH_KEPT_MAX such entries or more than SPH_KEPT_ROW list entries (that row's
+   * pair pass runs its own compaction gather). Allocated in setup for kept_cap rows. */
+  ej_idx *kept;
+  int32_t *kept_n;
+  ej_idx kept_cap;
   ej_real geom_rho0; /* geometry: spherical: the material's rho0 (density floor reference), else 0 */
 } sph_state;
 
-/* Rows longer than 64 SPH_KEEP_WORDS entries are visited in full (every entry tested). */
-#define SPH_KEEP_WORDS 8
-
-/* number of set bits of a word */
-static inline int sph_popcount64(uint64_t b)
-{
-#if defined(__GNUC__)
-  return __builtin_popcountll(b);
-#else
-  int n = 0;
-  for (; b; b &= b - 1) ++n;
-  return n;
-#endif
-}
-
-/* index of the lowest set bit of a nonzero word */
-static inline int sph_ctz64(uint64_t b)
-{
-#if defined(__GNUC__)
-  return __builtin_ctzll(b);
-#else
-  int n = 0;
-  while (!(b & 1u)) b >>= 1, ++n;
-  return n;
-#endif
-}
+/* Slot of kept neighbours per row (one pair-loop block, SPH_BLK), and the longest list row that
+ * uses it (longer rows: the pair pass runs its own compaction gather, as for the kernel gradient). */
+#define SPH_KEPT_MAX 128
+#define SPH_KEPT_ROW 512
 
 /* ------------------------------------------------------------------ declare */
 
@@ -389,7 +370,10 @@ static ej_err sph_create(const void *config, ej_set *set, const ej_model *model,
 static void sph_destroy(void *state)
 {
   sph_state *s = state;
-  if (s) ej_free(s->keep);
+  if (s) {
+    ej_free(s->kept);
+    ej_free(s->kept_n);
+  }
   ej_free(state);
 }
 
@@ -526,11 +510,12 @@ static ej_err sph_setup(void *state, ej_set *set)
   }
   /* h, p and c exist before the first support call and the first output frame. */
   EJ_TRY(sph_particle_pass(s, set, (ej_range){0, n}));
-  if (s->cfg.gradient == SPH_GRAD_SHAPE && !s->keep) { /* the shape pass's entry masks (setup only) */
+  if (s->cfg.gradient == SPH_GRAD_SHAPE && !s->kept) { /* the shape pass's kept-neighbour slots (setup only) */
     sph_state *ms = state;
-    ms->keep = ej_calloc((size_t)n * SPH_KEEP_WORDS + 1, sizeof(uint64_t));
-    EJ_ENSURE(ms->keep, EJ_ERR_MEM, "set '%s': sph out of memory", s->set_name);
-    ms->keep_cap = n;
+    ms->kept = ej_malloc(((size_t)n * SPH_KEPT_MAX + 1) * sizeof(ej_idx));
+    ms->kept_n = ej_malloc(((size_t)n + 1) * sizeof(int32_t));
+    EJ_ENSURE(ms->kept && ms->kept_n, EJ_ERR_MEM, "set '%s': sph out of memory", s->set_name);
+    ms->kept_cap = n;
   }
   return EJ_OK;
 }
@@ -564,6 +549,8 @@ static ej_err sph_support(void *state, const ej_set *set, ej_range r, ej_real *r
 
 /* Neighbour entries per block of the blocked pair loops (gather, vectorised terms, sum). */
 #define SPH_BLK 128
+/* the shape pass compaction-gathers one block straight into a row's kept slot */
+_Static_assert(SPH_KEPT_MAX == SPH_BLK, "a kept slot holds one pair-loop block");
 
 typedef struct sph_pair_args {
   const ej_real *x, *v, *m, *rho, *p_rho2, *c, *h, *w_cont, *L, *M;
@@ -571,7 +558,8 @@ typedef struct sph_pair_args {
   bool volume_form, renormalize, cont_rate;
   bool visc_kernel, energy_own; /* shape_form symmetric: shape_viscosity kernel, shape_energy own */
   bool cont_sym;                /* shape_form symmetric: shape_continuity symmetric */
-  const uint64_t *keep; /* shape tensor: the shape pass's masks of entries inside 2 hbar, or NULL */
+  const ej_idx *kept;    /* shape tensor: the shape pass's kept neighbours (sph_state.kept), or NULL */
+  const int32_t *kept_n; /* their counts per row (-1: not kept) */
   ej_real *a, *rho_dot, *e_dot, *w_dot, *mu_max;
   const ej_off *off;
   const ej_idx *idx;
@@ -721,11 +709,7 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
                                                      ej_off *k, const ej_off kend, const ej_real xi0,
                                                      const ej_real xi1, const ej_real xi2, const ej_real hi,
                                                      ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
-                                                     ej_real *restrict bh, ej_idx *restrict jb,
-                                                     uint64_t *restrict km, const ej_off kbase);
-#if defined(__AVX2__)
-static const int32_t sph_solid_perm32[16][8]; /* defined with sph_pairs_gather (the mask walk uses it) */
-#endif
+                                                     ej_real *restrict bh, ej_idx *restrict jb);
 
 /* Current shape tensor of the consistent SPH, digest 000 Eqs 29-31 (Fan & Li): the discrete
  * M_i = sum_j (m_j/rho_j) w(|x_ij|) x_ij (x) x_ij (the digest's [GAP] note: only the continuous
@@ -743,26 +727,29 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
                                                      const ej_real *restrict h, const ej_off *restrict off,
                                                      const ej_idx *restrict idx, ej_real rcond_min,
                                                      const ej_real *restrict vol, ej_real *restrict Minv,
-                                                     int32_t *restrict fb, uint64_t *restrict keep, ej_range rg)
+                                                     int32_t *restrict fb, ej_idx *restrict kept,
+                                                     int32_t *restrict kept_n, ej_range rg)
 {
   const ej_real sigma = sph_kernel_sigma(kernel, dim);
   /* Blocked like sph_pairs_blocked: the compaction gather (sph_pairs_gather, the pair loop's test
-   * r2 < 4 hbar^2 with the same operations) passes only the entries inside 2 hbar and sets their
-   * bits in the row's masks; then a vectorised sum over them (omp simd reduction: a fixed order for
-   * a given build, whatever the thread count). */
+   * r2 < 4 hbar^2 with the same operations) passes only the entries inside 2 hbar, then a vectorised
+   * sum over them (omp simd reduction: a fixed order for a given build, whatever the thread count).
+   * The first block's indices go straight into the row's slot of `kept` (SPH_KEPT_MAX = SPH_BLK
+   * entries), which the pair pass reads back; a row with a second block does not fit (kept_n = -1). */
   ej_real bx[SPH_BLK], by[SPH_BLK], bz[SPH_BLK], bh[SPH_BLK], bV[SPH_BLK];
-  ej_idx jb[SPH_BLK];
+  ej_idx jstack[SPH_BLK];
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
-    uint64_t *restrict ki = keep && off[i + 1] - off[i] <= 64 * SPH_KEEP_WORDS ? keep + SPH_KEEP_WORDS * i : NULL;
-    if (ki) /* the words past the row's last entry stay 0 */
-      for (int w = 0; w < SPH_KEEP_WORDS; ++w) ki[w] = 0;
+    ej_idx *restrict ks = kept && off[i + 1] - off[i] <= SPH_KEPT_ROW ? kept + (size_t)SPH_KEPT_MAX * i : NULL;
+    int32_t nkept = ks ? 0 : -1;
     ej_real b0 = 0, b1 = 0, b2 = 0, b3 = 0, b4 = 0, b5 = 0; /* xx yy zz xy yz zx */
     const ej_real inv_hi = 1.0 / h[i], hi = h[i];
     const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
     ej_off kc = off[i];
     for (;;) {
-      const int nk = sph_pairs_gather(dim, x, h, idx, &kc, off[i + 1], xi0, xi1, xi2, hi, bx, by, bz, bh, jb, ki, off[i]);
+      ej_idx *restrict jb = nkept == 0 ? ks : jstack; /* the first block: into the slot */
+      const int nk = sph_pairs_gather(dim, x, h, idx, &kc, off[i + 1], xi0, xi1, xi2, hi, bx, by, bz, bh, jb);
       if (nk == 0) break;
+      nkept = nkept == 0 ? nk : -1;
       /* vol: m/rho from pass 0 (the volume-form continuity weight), the same number without a division */
       int q = 0;
 #if defined(__AVX2__)
@@ -793,6 +780,7 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
         b5 += w * rz * rx;
       }
     }
+    if (kept_n) kept_n[i] = nkept;
     ej_real b[6] = {b0, dim > 1 ? b1 : 0.0, dim > 2 ? b2 : 0.0, dim > 1 ? b3 : 0.0, dim > 2 ? b4 : 0.0,
                     dim > 2 ? b5 : 0.0};
     for (int c = 0; c < 6; ++c) b[c] *= inv_hi * inv_hi;
@@ -836,10 +824,12 @@ static ej_err sph_shape_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr,
             s->set_name);
   const ej_real thr = s->cfg.shape_rcond_min;
   const ej_real *vol = s->cfg.continuity == SPH_CONT_VOLUME ? ej_set_field(set, "w_cont") : NULL;
-  uint64_t *keep = s->keep && ej_set_count(set) <= s->keep_cap ? s->keep : NULL;
+  const bool slots = s->kept && ej_set_count(set) <= s->kept_cap;
+  ej_idx *kept = slots ? s->kept : NULL;
+  int32_t *kept_n = slots ? s->kept_n : NULL;
 #define SPH_SHAPE_CASE(k, d)                                                                            \
   case (k) * 4 + (d):                                                                                   \
-    sph_shape_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, thr, vol, Minv, fb, keep, r);            \
+    sph_shape_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, thr, vol, Minv, fb, kept, kept_n, r);    \
     break
   switch (s->cfg.kernel * 4 + s->dim) {
     SPH_FOR_EACH_KERNEL_DIM(SPH_SHAPE_CASE);
@@ -1026,9 +1016,16 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
  * from one division, 1/(r hbar d1 rho_sum), times the other three factors: divisions are the
  * slowest vector operations (profile in README). With r >= 1e-12 hbar, d1 >= eta^2 hbar^2 and
  * rho_sum >= 2 rho_min the product neither overflows nor underflows for any physical scale. */
-static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const int dim, const int shape,
-                                                        const sph_pair_args *A, ej_range rg)
+/* the gathered neighbour data of sph_pairs_row (buf[k], k one of these) */
+enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BPR, BM, NBUF };
+
+static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int dim, const int shape, const bool fb0,
+                                                    const sph_pair_args *A, const ej_idx i,
+                                                    ej_real (*restrict buf)[SPH_BLK], ej_real (*restrict bM)[SPH_BLK],
+                                                    ej_idx *restrict jb)
 {
+  /* fb0 (shape == 3 only): row i is known not to have fallen back (fb[i] = 0), a compile-time constant in
+   * this instantiation, so the fallback selects of row i fold away (the same expressions otherwise) */
   const ej_real *restrict x = A->x, *restrict v = A->v, *restrict m = A->m, *restrict rho = A->rho;
   const ej_real *restrict p_rho2 = A->p_rho2, *restrict c = A->c, *restrict h = A->h;
   const ej_real *restrict M = A->M;
@@ -1061,248 +1058,237 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
    * de_i/dt = p_i/rho_i^2 drho_i/dt pair by pair; momentum and energy stay exactly conserved (the coefficient
    * V_i V_j (p_i + p_j) is symmetric, G_ij antisymmetric). */
   const bool vol_pair = cont_sym && volume_form && (visc_kernel || energy_own);
-  /* shape >= 2: the neighbour's M_j^-1 (6; all 0 for a fallback row) */
-  ej_real bM[6][sym ? SPH_BLK : 1];
-  /* gathered neighbour data (12 KiB of stack, L1-resident); one array so that every buffer is
-   * a constant offset from one base register (no spilled pointers) */
-  enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BPR, BM, NBUF };
-  ej_real buf[NBUF][SPH_BLK];
+  /* the buffers of sph_pairs_blocked: bM (shape >= 2: the neighbours' M_j^-1, all 0 for a fallback row),
+   * buf (the other gathered neighbour data) and jb */
   ej_real *restrict bx = buf[BX], *restrict by = buf[BY], *restrict bz = buf[BZ], *restrict bh = buf[BH];
   ej_real *restrict bvx = buf[BVX], *restrict bvy = buf[BVY], *restrict bvz = buf[BVZ];
   ej_real *restrict brho = buf[BRHO], *restrict bc = buf[BC], *restrict bpr = buf[BPR], *restrict bm = buf[BM];
-  ej_idx jb[SPH_BLK + 4]; /* neighbours of the block (+4: the mask walk's 4-wide stores) */
 
-  for (ej_idx i = rg.begin; i < rg.end; ++i) {
-    const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
-    const ej_real vi0 = v[3 * i], vi1 = dim > 1 ? v[3 * i + 1] : 0.0, vi2 = dim > 2 ? v[3 * i + 2] : 0.0;
-    const ej_real rhoi = rho[i], hi = h[i], ci = c[i];
-    const ej_real pri = p_rho2[i];
-    const ej_real p_over_rho_i = vol_pair ? pri * rhoi : 0.0, inv_rhoi = vol_pair ? 1.0 / rhoi : 0.0;
-    /* shape tensor (as in sph_pairs): row i's M_i^-1 and fallback flag */
-    const int fbi = shape ? fb[i] : 0;
-    const ej_real cfi = fbi ? 1.0 : 0.0; /* shape == 3: c_i of the combined product below */
-    const ej_real mi0 = shape ? M[6 * i] : 0.0, mi1 = shape ? M[6 * i + 1] : 0.0, mi2 = shape ? M[6 * i + 2] : 0.0;
-    const ej_real mi3 = shape ? M[6 * i + 3] : 0.0, mi4 = shape ? M[6 * i + 4] : 0.0, mi5 = shape ? M[6 * i + 5] : 0.0;
-    const bool ren = shape ? renormalize && fbi : renormalize;
-    ej_real ax = 0.0, ay = 0.0, az = 0.0, drho = 0.0, norm = 0.0, de = 0.0, dw = 0.0, mumax = 0.0;
-    /* shape tensor: only the entries inside 2 hbar, from the shape pass's masks */
-    const uint64_t *restrict ki = shape && A->keep && off[i + 1] - off[i] <= 64 * SPH_KEEP_WORDS
-                                      ? A->keep + SPH_KEEP_WORDS * i : NULL;
-    int wrd = 0;
-    ej_off kc = off[i];
-    const ej_idx *restrict row = idx + off[i];
-    for (;;) {
-      int nk = 0, q0 = 0, qs = 0; /* x and h gathered below q0, the rest below qs */
-      if (ki) { /* the set bits of the masks in list order, whole words per block (a word has <= 64) */
-        for (; wrd < SPH_KEEP_WORDS; ++wrd) {
-          uint64_t bits = ki[wrd];
-          if (nk + sph_popcount64(bits) > SPH_BLK) break;
-          const ej_idx *restrict rw = row + 64 * wrd;
+  const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
+  const ej_real vi0 = v[3 * i], vi1 = dim > 1 ? v[3 * i + 1] : 0.0, vi2 = dim > 2 ? v[3 * i + 2] : 0.0;
+  const ej_real rhoi = rho[i], hi = h[i], ci = c[i];
+  const ej_real pri = p_rho2[i];
+  const ej_real p_over_rho_i = vol_pair ? pri * rhoi : 0.0, inv_rhoi = vol_pair ? 1.0 / rhoi : 0.0;
+  /* shape tensor (as in sph_pairs): row i's M_i^-1 and fallback flag */
+  const int fbi = shape ? (fb0 ? 0 : fb[i]) : 0;
+  const ej_real cfi = fbi ? 1.0 : 0.0; /* shape == 3: c_i of the combined product below */
+  const ej_real mi0 = shape ? M[6 * i] : 0.0, mi1 = shape ? M[6 * i + 1] : 0.0, mi2 = shape ? M[6 * i + 2] : 0.0;
+  const ej_real mi3 = shape ? M[6 * i + 3] : 0.0, mi4 = shape ? M[6 * i + 4] : 0.0, mi5 = shape ? M[6 * i + 5] : 0.0;
+  const bool ren = shape ? renormalize && fbi : renormalize;
+  ej_real ax = 0.0, ay = 0.0, az = 0.0, drho = 0.0, norm = 0.0, de = 0.0, dw = 0.0, mumax = 0.0;
+  /* shape tensor: the entries inside 2 hbar that the shape pass kept (one block), when the row fits */
+  const int32_t nkept = shape && A->kept ? A->kept_n[i] : -1;
+  const ej_idx *restrict ks = nkept >= 0 ? A->kept + (size_t)SPH_KEPT_MAX * i : NULL;
+  ej_off kc = off[i];
+  for (;;) {
+    int nk = 0, q0 = 0, qs = 0; /* x and h gathered below q0, the rest below qs */
+    const ej_idx *restrict jq = jb;
+    if (ks) { /* the shape pass's compaction, in list order: no test, one block */
+      if (kc == off[i + 1] || nkept == 0) break;
+      kc = off[i + 1], nk = nkept, jq = ks;
+    } else {
+      /* kernel gradient (and shape rows that did not fit the slots): only the entries inside 2 hbar
+       * (~62 of ~80 on the throughput scene) reach the buffers: the same test r2 < 4 hbar^2, with the
+       * same operations, as `keep` below (README "Throughput") */
+      nk = sph_pairs_gather(dim, x, h, idx, &kc, off[i + 1], xi0, xi1, xi2, hi, bx, by, bz, bh, jb);
+      if (nk == 0) break;
+      q0 = nk;
+    }
 #if defined(__AVX2__)
-          /* four entries per nibble: a masked load (no read past the set bits: the list's last row may end
-           * there), the compaction permutation of sph_pairs_gather and one 128-bit store (jb has 4 spare
-           * slots): the same indices in the same order as the scalar walk, ~1/4 of its instructions */
-          const __m128i lane = _mm_setr_epi32(1, 2, 4, 8);
-          for (const ej_idx *restrict r4 = rw; bits; bits >>= 4, r4 += 4) {
-            const unsigned nib = (unsigned)bits & 15u;
-            const __m128i mk = _mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32((int)nib), lane), lane);
-            const __m128i j4 = _mm_maskload_epi32((const int *)(const void *)r4, mk);
-            const __m256i pj = _mm256_load_si256((const __m256i *)(const void *)sph_solid_perm32[nib]);
-            _mm_storeu_si128((__m128i *)(void *)(jb + nk),
-                             _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castsi128_si256(j4), pj)));
-            nk += __builtin_popcount(nib);
-          }
-#else
-          for (; bits; bits &= bits - 1) jb[nk++] = rw[sph_ctz64(bits)];
-#endif
-        }
-        if (nk == 0) break;
-      } else {
-        /* kernel gradient (and shape rows too long for the masks): only the entries inside 2 hbar
-         * (~62 of ~80 on the throughput scene) reach the buffers: the same test r2 < 4 hbar^2, with the
-         * same operations, as `keep` below (README "Throughput") */
-        nk = sph_pairs_gather(dim, x, h, idx, &kc, off[i + 1], xi0, xi1, xi2, hi, bx, by, bz, bh, jb, NULL, 0);
-        if (nk == 0) break;
-        q0 = nk;
+    /* 3D: the rest four entries at a time (scalar loads into one vector, one store; data movement only) */
+    if (dim == 3) {
+      for (; q0 + 4 <= nk; q0 += 4) {
+        const ej_idx *restrict j4 = jq + q0;
+        __m256d c0, c1;
+        sph_pairs_xy4(x, j4, &c0, &c1);
+        _mm256_storeu_pd(bx + q0, c0), _mm256_storeu_pd(by + q0, c1), sph_pairs_g4(x + 2, 3, j4, bz + q0);
+        sph_pairs_g4(h, 1, j4, bh + q0);
       }
-#if defined(__AVX2__)
-      /* 3D: the rest four entries at a time (scalar loads into one vector, one store; data movement only) */
-      if (dim == 3) {
-        for (; q0 + 4 <= nk; q0 += 4) {
-          const ej_idx *restrict j4 = jb + q0;
-          __m256d c0, c1;
-          sph_pairs_xy4(x, j4, &c0, &c1);
-          _mm256_storeu_pd(bx + q0, c0), _mm256_storeu_pd(by + q0, c1), sph_pairs_g4(x + 2, 3, j4, bz + q0);
-          sph_pairs_g4(h, 1, j4, bh + q0);
-        }
-        int q = 0;
-        for (; q + 4 <= nk; q += 4) {
-          const ej_idx *restrict j4 = jb + q;
-          __m256d c0, c1;
-          sph_pairs_xy4(v, j4, &c0, &c1);
-          _mm256_storeu_pd(bvx + q, c0), _mm256_storeu_pd(bvy + q, c1), sph_pairs_g4(v + 2, 3, j4, bvz + q);
-          sph_pairs_g4(rho, 1, j4, brho + q), sph_pairs_g4(c, 1, j4, bc + q);
-          sph_pairs_g4(p_rho2, 1, j4, bpr + q), sph_pairs_g4(m, 1, j4, bm + q);
-          if (sym)
-            sph_pairs_m6(M, j4, bM[0] + q, sym ? SPH_BLK : 1);
-        }
-        for (; q < nk; ++q) {
-          const ej_idx j = jb[q];
-          if (q >= q0) bx[q] = x[3 * j], by[q] = x[3 * j + 1], bz[q] = x[3 * j + 2], bh[q] = h[j];
-          bvx[q] = v[3 * j], bvy[q] = v[3 * j + 1], bvz[q] = v[3 * j + 2];
-          brho[q] = rho[j], bc[q] = c[j], bpr[q] = p_rho2[j], bm[q] = m[j];
-          if (sym)
-            for (int t = 0; t < 6; ++t) bM[t][q] = M[6 * j + t];
-        }
-        qs = nk;
+      int q = 0;
+      for (; q + 4 <= nk; q += 4) {
+        const ej_idx *restrict j4 = jq + q;
+        __m256d c0, c1;
+        sph_pairs_xy4(v, j4, &c0, &c1);
+        _mm256_storeu_pd(bvx + q, c0), _mm256_storeu_pd(bvy + q, c1), sph_pairs_g4(v + 2, 3, j4, bvz + q);
+        sph_pairs_g4(rho, 1, j4, brho + q), sph_pairs_g4(c, 1, j4, bc + q);
+        sph_pairs_g4(p_rho2, 1, j4, bpr + q), sph_pairs_g4(m, 1, j4, bm + q);
+        if (sym)
+          sph_pairs_m6(M, j4, bM[0] + q, SPH_BLK);
       }
-#endif
-      for (int q = qs; q < nk; ++q) {
-        const ej_idx j = jb[q];
-        if (q >= q0) {
-          bx[q] = x[3 * j];
-          by[q] = dim > 1 ? x[3 * j + 1] : 0.0;
-          bz[q] = dim > 2 ? x[3 * j + 2] : 0.0;
-          bh[q] = h[j];
-        }
-        bvx[q] = v[3 * j];
-        bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0;
-        bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
+      for (; q < nk; ++q) {
+        const ej_idx j = jq[q];
+        if (q >= q0) bx[q] = x[3 * j], by[q] = x[3 * j + 1], bz[q] = x[3 * j + 2], bh[q] = h[j];
+        bvx[q] = v[3 * j], bvy[q] = v[3 * j + 1], bvz[q] = v[3 * j + 2];
         brho[q] = rho[j], bc[q] = c[j], bpr[q] = p_rho2[j], bm[q] = m[j];
-        if (sym) /* M_inv = 0 marks a fallback row (a regular M^-1 has M^-1_xx > 0) */
+        if (sym)
           for (int t = 0; t < 6; ++t) bM[t][q] = M[6 * j + t];
-#if defined(__GNUC__)
-        /* keeps this loop scalar: vectorised, its indexed loads become element inserts (slower) */
-        __asm__ volatile("");
-#endif
       }
+      qs = nk;
+    }
+#endif
+    for (int q = qs; q < nk; ++q) {
+      const ej_idx j = jq[q];
+      if (q >= q0) {
+        bx[q] = x[3 * j];
+        by[q] = dim > 1 ? x[3 * j + 1] : 0.0;
+        bz[q] = dim > 2 ? x[3 * j + 2] : 0.0;
+        bh[q] = h[j];
+      }
+      bvx[q] = v[3 * j];
+      bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0;
+      bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
+      brho[q] = rho[j], bc[q] = c[j], bpr[q] = p_rho2[j], bm[q] = m[j];
+      if (sym) /* M_inv = 0 marks a fallback row (a regular M^-1 has M^-1_xx > 0) */
+        for (int t = 0; t < 6; ++t) bM[t][q] = M[6 * j + t];
+#if defined(__GNUC__)
+      /* keeps this loop scalar: vectorised, its indexed loads become element inserts (slower) */
+      __asm__ volatile("");
+#endif
+    }
 #if defined(_OPENMP)
 #pragma omp simd reduction(+ : ax, ay, az, drho, norm, de, dw) reduction(max : mumax)
 #endif
-      for (int q = 0; q < nk; ++q) {
-        const ej_real rx = xi0 - bx[q];
-        const ej_real ry = dim > 1 ? xi1 - by[q] : 0.0;
-        const ej_real rz = dim > 2 ? xi2 - bz[q] : 0.0;
-        const ej_real r2 = rx * rx + ry * ry + rz * rz;
-        const ej_real hbar = 0.5 * (hi + bh[q]);
-        /* every gathered entry passed r2 < 4 hbar^2 with these operations (sph_pairs_gather, or the
-         * shape pass's masks: the same r2 and hbar), so the skin selects below fold away */
-        const bool keep = true;
-        (void)r2;
-        /* A coincident pair has f'(0) = 0 for both kernels: clamping r keeps 0 * finite. */
-        const ej_real r_raw = sqrt(r2), r_min = 1e-12 * hbar;
-        const ej_real r = r_raw > r_min ? r_raw : r_min;
-        const ej_real rhoj = brho[q], d1 = r2 + eta2 * hbar * hbar, rho_sum = rhoi + rhoj;
-        /* one division for the five reciprocals (1/rho_j: the continuity weight m_j/rho_j of the
-         * volume form, one copied array less than gathering w_cont) */
-        const ej_real P = r * hbar, Q = d1 * rho_sum, PQ = P * Q, D = 1.0 / (PQ * rhoj), Dj = D * rhoj;
-        const ej_real PD = P * Dj, QD = Q * Dj;
-        const ej_real inv_h = r * QD, inv_r = hbar * QD, inv_d1 = rho_sum * PD, inv_rho_sum = d1 * PD;
-        const ej_real wj = volume_form ? bm[q] * (PQ * D) : bm[q];
-        const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) * inv_r;
-        const ej_real vx = vi0 - bvx[q];
-        const ej_real vy = dim > 1 ? vi1 - bvy[q] : 0.0;
-        const ej_real vz = dim > 2 ? vi2 - bvz[q] : 0.0;
-        const ej_real vr = vx * rx + vy * ry + vz * rz;
-        const ej_real mu = hbar * (vr < 0.0 ? vr : 0.0) * inv_d1;
-        const ej_real pi_ij = (-alpha * 0.5 * (ci + bc[q]) * mu + beta * mu * mu) * 2.0 * inv_rho_sum;
-        const ej_real mj = bm[q];
-        const ej_real fP = mj * (pri + bpr[q] + pi_ij);
-        ej_real gx = gw * rx, gy = gw * ry, gz = gw * rz;
-        ej_real vC = vr * gw, vG = vC;
-        const ej_real kx = gx, ky = gy, kz = gz, vK = vC; /* grad_i W_ij and v_ij . grad_i W_ij */
-        if (shape == 3) {
-          /* G_ij = (g_i + g_j)/2, g_i = M_i^-1 u (u = -w_ij x_ij: the u of the branch below), a fallback
-           * row's g being grad_i W_ij. M^-1 = 0 marks a fallback row, so with c = 1 for a fallback row
-           * (else 0) g_i + g_j = (M_i^-1 + M_j^-1) u + (c_i + c_j) grad_i W_ij: one 3 x 3 product per pair
-           * instead of two, and no select on the row's flag (README "Throughput note (shape pair loop,
-           * explosive bench)"). The same G_ij up to round-off; a pair of two fallback rows gets
-           * exactly grad_i W_ij (0.5 (1 + 1) gw, the product term is 0), as in the branch below. */
-          const ej_real wv = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
+    for (int q = 0; q < nk; ++q) {
+      const ej_real rx = xi0 - bx[q];
+      const ej_real ry = dim > 1 ? xi1 - by[q] : 0.0;
+      const ej_real rz = dim > 2 ? xi2 - bz[q] : 0.0;
+      const ej_real r2 = rx * rx + ry * ry + rz * rz;
+      const ej_real hbar = 0.5 * (hi + bh[q]);
+      /* every gathered entry passed r2 < 4 hbar^2 with these operations (sph_pairs_gather, or the
+       * shape pass's masks: the same r2 and hbar), so the skin selects below fold away */
+      const bool keep = true;
+      (void)r2;
+      /* A coincident pair has f'(0) = 0 for both kernels: clamping r keeps 0 * finite. */
+      const ej_real r_raw = sqrt(r2), r_min = 1e-12 * hbar;
+      const ej_real r = r_raw > r_min ? r_raw : r_min;
+      const ej_real rhoj = brho[q], d1 = r2 + eta2 * hbar * hbar, rho_sum = rhoi + rhoj;
+      /* one division for the five reciprocals (1/rho_j: the continuity weight m_j/rho_j of the
+       * volume form, one copied array less than gathering w_cont) */
+      const ej_real P = r * hbar, Q = d1 * rho_sum, PQ = P * Q, D = 1.0 / (PQ * rhoj), Dj = D * rhoj;
+      const ej_real PD = P * Dj, QD = Q * Dj;
+      const ej_real inv_h = r * QD, inv_r = hbar * QD, inv_d1 = rho_sum * PD, inv_rho_sum = d1 * PD;
+      const ej_real wj = volume_form ? bm[q] * (PQ * D) : bm[q];
+      const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) * inv_r;
+      const ej_real vx = vi0 - bvx[q];
+      const ej_real vy = dim > 1 ? vi1 - bvy[q] : 0.0;
+      const ej_real vz = dim > 2 ? vi2 - bvz[q] : 0.0;
+      const ej_real vr = vx * rx + vy * ry + vz * rz;
+      const ej_real mu = hbar * (vr < 0.0 ? vr : 0.0) * inv_d1;
+      const ej_real pi_ij = (-alpha * 0.5 * (ci + bc[q]) * mu + beta * mu * mu) * 2.0 * inv_rho_sum;
+      const ej_real mj = bm[q];
+      const ej_real fP = mj * (pri + bpr[q] + pi_ij);
+      ej_real gx = gw * rx, gy = gw * ry, gz = gw * rz;
+      ej_real vC = vr * gw, vG = vC;
+      const ej_real kx = gx, ky = gy, kz = gz, vK = vC; /* grad_i W_ij and v_ij . grad_i W_ij */
+      if (shape == 3) {
+        /* G_ij = (g_i + g_j)/2, g_i = M_i^-1 u (u = -w_ij x_ij: the u of the branch below), a fallback
+         * row's g being grad_i W_ij. M^-1 = 0 marks a fallback row, so with c = 1 for a fallback row
+         * (else 0) g_i + g_j = (M_i^-1 + M_j^-1) u + (c_i + c_j) grad_i W_ij: one 3 x 3 product per pair
+         * instead of two, and no select on the row's flag (README "Throughput note (shape pair loop,
+         * explosive bench)"). The same G_ij up to round-off; a pair of two fallback rows gets
+         * exactly grad_i W_ij (0.5 (1 + 1) gw, the product term is 0), as in the branch below. */
+        const ej_real wv = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
+        const bool fj = !(bM[0][q] > 0.0); /* fallback row j: M_j^-1 = 0 */
+        const ej_real s0 = mi0 + bM[0][q], s1 = mi1 + bM[1][q], s2 = mi2 + bM[2][q];
+        const ej_real s3 = mi3 + bM[3][q], s4 = mi4 + bM[4][q], s5 = mi5 + bM[5][q];
+        const ej_real yx = s0 * rx + s3 * ry + s5 * rz;
+        const ej_real yy = dim > 1 ? s3 * rx + s1 * ry + s4 * rz : 0.0;
+        const ej_real yz = dim > 2 ? s5 * rx + s4 * ry + s2 * rz : 0.0;
+        const ej_real cu = -0.5 * wv, ck = 0.5 * (cfi + (fj ? 1.0 : 0.0)) * gw;
+        gx = cu * yx + ck * rx;
+        gy = dim > 1 ? cu * yy + ck * ry : 0.0;
+        gz = dim > 2 ? cu * yz + ck * rz : 0.0;
+        vG = (fbi && fj) ? vr * gw : vx * gx + vy * gy + vz * gz;
+        vC = fbi ? vr * gw : vG; /* shape_continuity: symmetric (a fallback row: the kernel divergence) */
+      } else if (shape) { /* the expressions of sph_pairs, with selects for the fallbacks */
+        const ej_real wv = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
+        const ej_real ux = -wv * rx, uy = -wv * ry, uz = -wv * rz;
+        const ej_real sx = mi0 * ux + mi3 * uy + mi5 * uz;
+        const ej_real sy = dim > 1 ? mi3 * ux + mi1 * uy + mi4 * uz : 0.0;
+        const ej_real sz = dim > 2 ? mi5 * ux + mi4 * uy + mi2 * uz : 0.0;
+        const ej_real ix = fbi ? gx : sx, iy = fbi ? gy : sy, iz = fbi ? gz : sz;
+        vC = fbi ? vr * gw : vx * ix + vy * iy + vz * iz;
+        if (sym) {
+          const ej_real tx = bM[0][q] * ux + bM[3][q] * uy + bM[5][q] * uz;
+          const ej_real ty = dim > 1 ? bM[3][q] * ux + bM[1][q] * uy + bM[4][q] * uz : 0.0;
+          const ej_real tz = dim > 2 ? bM[5][q] * ux + bM[4][q] * uy + bM[2][q] * uz : 0.0;
           const bool fj = !(bM[0][q] > 0.0); /* fallback row j: M_j^-1 = 0 */
-          const ej_real s0 = mi0 + bM[0][q], s1 = mi1 + bM[1][q], s2 = mi2 + bM[2][q];
-          const ej_real s3 = mi3 + bM[3][q], s4 = mi4 + bM[4][q], s5 = mi5 + bM[5][q];
-          const ej_real yx = s0 * rx + s3 * ry + s5 * rz;
-          const ej_real yy = dim > 1 ? s3 * rx + s1 * ry + s4 * rz : 0.0;
-          const ej_real yz = dim > 2 ? s5 * rx + s4 * ry + s2 * rz : 0.0;
-          const ej_real cu = -0.5 * wv, ck = 0.5 * (cfi + (fj ? 1.0 : 0.0)) * gw;
-          gx = cu * yx + ck * rx;
-          gy = dim > 1 ? cu * yy + ck * ry : 0.0;
-          gz = dim > 2 ? cu * yz + ck * rz : 0.0;
+          const ej_real jx = fj ? gx : tx, jy = fj ? gy : ty, jz = fj ? gz : tz;
+          gx = 0.5 * (ix + jx), gy = 0.5 * (iy + jy), gz = 0.5 * (iz + jz);
           vG = (fbi && fj) ? vr * gw : vx * gx + vy * gy + vz * gz;
-          vC = fbi ? vr * gw : vG; /* shape_continuity: symmetric (a fallback row: the kernel divergence) */
-        } else if (shape) { /* the expressions of sph_pairs, with selects for the fallbacks */
-          const ej_real wv = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
-          const ej_real ux = -wv * rx, uy = -wv * ry, uz = -wv * rz;
-          const ej_real sx = mi0 * ux + mi3 * uy + mi5 * uz;
-          const ej_real sy = dim > 1 ? mi3 * ux + mi1 * uy + mi4 * uz : 0.0;
-          const ej_real sz = dim > 2 ? mi5 * ux + mi4 * uy + mi2 * uz : 0.0;
-          const ej_real ix = fbi ? gx : sx, iy = fbi ? gy : sy, iz = fbi ? gz : sz;
-          vC = fbi ? vr * gw : vx * ix + vy * iy + vz * iz;
-          if (sym) {
-            const ej_real tx = bM[0][q] * ux + bM[3][q] * uy + bM[5][q] * uz;
-            const ej_real ty = dim > 1 ? bM[3][q] * ux + bM[1][q] * uy + bM[4][q] * uz : 0.0;
-            const ej_real tz = dim > 2 ? bM[5][q] * ux + bM[4][q] * uy + bM[2][q] * uz : 0.0;
-            const bool fj = !(bM[0][q] > 0.0); /* fallback row j: M_j^-1 = 0 */
-            const ej_real jx = fj ? gx : tx, jy = fj ? gy : ty, jz = fj ? gz : tz;
-            gx = 0.5 * (ix + jx), gy = 0.5 * (iy + jy), gz = 0.5 * (iz + jz);
-            vG = (fbi && fj) ? vr * gw : vx * gx + vy * gy + vz * gz;
-            /* shape_continuity: symmetric: the continuity equation with G_ij too (a fallback row keeps
-             * the renormalised kernel divergence) */
-            if (cont_sym && !fbi) vC = vG;
-          } else {
-            gx = ix, gy = iy, gz = iz;
-            vG = fbi ? vr * gw : vx * gx + vy * gy + vz * gz;
-          }
-        }
-        /* pairs beyond 2 hbar (the skin) add exact zeros */
-        const ej_real wk = keep ? wj : 0.0;
-        mumax = keep && -mu > mumax ? -mu : mumax;
-        drho += wk * vC;
-        norm += wk * r2 * gw;
-        if (visc_kernel || energy_own) {
-          /* pressure with G_ij; viscosity with G_ij or grad_i W_ij (radial: v_ij.grad_i W_ij >= 0 wherever
-           * Pi_ij > 0, so the viscous heating is >= 0); energy 1/2 (p_i + p_j) or p_i (x2, halved below) */
-          /* vol_pair: m_j (p_i + p_j)/(rho_i rho_j) = V_j (p_i/rho_i + p_j/rho_i), V_j = m_j/rho_j = wj */
-          const ej_real fp = keep ? (vol_pair ? wj * (p_over_rho_i + bpr[q] * rhoj * rhoj * inv_rhoi) : mj * (pri + bpr[q]))
-                                  : 0.0;
-          const ej_real fv = keep ? mj * pi_ij : 0.0;
-          const ej_real vx_ = visc_kernel ? kx : gx, vy_ = visc_kernel ? ky : gy, vz_ = visc_kernel ? kz : gz;
-          const ej_real vV = visc_kernel ? vK : vG;
-          /* a pair where both rows fell back is a plain kernel-gradient pair: exactly the kernel
-           * form (000 Eqs 23-24), bitwise; the classification is symmetric in i, j, so energy is
-           * conserved pair by pair either way */
-          const bool plain = fbi && !(bM[0][q] > 0.0);
-          const ej_real fPk = keep ? fP : 0.0;
-          const ej_real tx = fp * gx + fv * vx_, ty = fp * gy + fv * vy_, tz = fp * gz + fv * vz_;
-          ax -= plain ? fPk * gx : tx;
-          if (dim > 1) ay -= plain ? fPk * gy : ty;
-          if (dim > 2) az -= plain ? fPk * gz : tz;
-          const ej_real te = (energy_own ? (keep ? 2.0 * (vol_pair ? wj * p_over_rho_i : mj * pri) : 0.0) : fp) * vG + fv * vV;
-          de += plain ? fPk * vG : te;
-          dw += plain ? fv * vG : fv * vV;
+          /* shape_continuity: symmetric: the continuity equation with G_ij too (a fallback row keeps
+           * the renormalised kernel divergence) */
+          if (cont_sym && !fbi) vC = vG;
         } else {
-          const ej_real fPk = keep ? fP : 0.0;
-          ax -= fPk * gx;
-          if (dim > 1) ay -= fPk * gy;
-          if (dim > 2) az -= fPk * gz;
-          de += fPk * vG;
-          dw += keep ? mj * pi_ij * vG : 0.0;
+          gx = ix, gy = iy, gz = iz;
+          vG = fbi ? vr * gw : vx * gx + vy * gy + vz * gz;
         }
       }
+      /* pairs beyond 2 hbar (the skin) add exact zeros */
+      const ej_real wk = keep ? wj : 0.0;
+      mumax = keep && -mu > mumax ? -mu : mumax;
+      drho += wk * vC;
+      norm += wk * r2 * gw;
+      if (visc_kernel || energy_own) {
+        /* pressure with G_ij; viscosity with G_ij or grad_i W_ij (radial: v_ij.grad_i W_ij >= 0 wherever
+         * Pi_ij > 0, so the viscous heating is >= 0); energy 1/2 (p_i + p_j) or p_i (x2, halved below) */
+        /* vol_pair: m_j (p_i + p_j)/(rho_i rho_j) = V_j (p_i/rho_i + p_j/rho_i), V_j = m_j/rho_j = wj */
+        const ej_real fp = keep ? (vol_pair ? wj * (p_over_rho_i + bpr[q] * rhoj * rhoj * inv_rhoi) : mj * (pri + bpr[q]))
+                                : 0.0;
+        const ej_real fv = keep ? mj * pi_ij : 0.0;
+        const ej_real vx_ = visc_kernel ? kx : gx, vy_ = visc_kernel ? ky : gy, vz_ = visc_kernel ? kz : gz;
+        const ej_real vV = visc_kernel ? vK : vG;
+        /* a pair where both rows fell back is a plain kernel-gradient pair: exactly the kernel
+         * form (000 Eqs 23-24), bitwise; the classification is symmetric in i, j, so energy is
+         * conserved pair by pair either way */
+        const bool plain = fbi && !(bM[0][q] > 0.0);
+        const ej_real fPk = keep ? fP : 0.0;
+        const ej_real tx = fp * gx + fv * vx_, ty = fp * gy + fv * vy_, tz = fp * gz + fv * vz_;
+        ax -= plain ? fPk * gx : tx;
+        if (dim > 1) ay -= plain ? fPk * gy : ty;
+        if (dim > 2) az -= plain ? fPk * gz : tz;
+        const ej_real te = (energy_own ? (keep ? 2.0 * (vol_pair ? wj * p_over_rho_i : mj * pri) : 0.0) : fp) * vG + fv * vV;
+        de += plain ? fPk * vG : te;
+        dw += plain ? fv * vG : fv * vV;
+      } else {
+        const ej_real fPk = keep ? fP : 0.0;
+        ax -= fPk * gx;
+        if (dim > 1) ay -= fPk * gy;
+        if (dim > 2) az -= fPk * gz;
+        de += fPk * vG;
+        dw += keep ? mj * pi_ij * vG : 0.0;
+      }
     }
-    a[3 * i] += ax;
-    if (dim > 1) a[3 * i + 1] += ay;
-    if (dim > 2) a[3 * i + 2] += az;
-    if (ren && norm < 0.0) { /* as in sph_pairs */
-      ej_real fac = -(ej_real)dim / (volume_form ? norm : norm / rhoi);
-      fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
-      drho *= fac;
-    }
-    if (A->cont_rate) rho_dot[i] += volume_form ? rhoi * drho : drho;
-    e_dot[i] += 0.5 * de;
-    w_dot[i] += 0.5 * dw;
-    mu_max[i] = mumax;
+  }
+  a[3 * i] += ax;
+  if (dim > 1) a[3 * i + 1] += ay;
+  if (dim > 2) a[3 * i + 2] += az;
+  if (ren && norm < 0.0) { /* as in sph_pairs */
+    ej_real fac = -(ej_real)dim / (volume_form ? norm : norm / rhoi);
+    fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
+    drho *= fac;
+  }
+  if (A->cont_rate) rho_dot[i] += volume_form ? rhoi * drho : drho;
+  e_dot[i] += 0.5 * de;
+  w_dot[i] += 0.5 * dw;
+  mu_max[i] = mumax;
+}
+
+static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const int dim, const int shape,
+                                                        const sph_pair_args *A, ej_range rg)
+{
+  /* shape == 3: rows that did not fall back (nearly all) run their own instantiation (sph_pairs_row's fb0).
+   * A local copy of the arguments: the stores into a[], e_dot[]... cannot alias it, so the pointers and
+   * constants stay in registers across rows. */
+  const sph_pair_args L = *A;
+  /* gathered neighbour data (12 KiB of stack, L1-resident); one array so that every buffer is a constant
+   * offset from one base register (no spilled pointers); declared here, once per range, not per row */
+  ej_real buf[NBUF][SPH_BLK];
+  ej_real bM[shape >= 2 ? 6 : 1][SPH_BLK]; /* shape >= 2: the neighbours' M_j^-1 */
+  ej_idx jb[SPH_BLK];                      /* neighbours of the block (the compaction gather's) */
+  for (ej_idx i = rg.begin; i < rg.end; ++i) {
+    if (shape == 3 && !L.fb[i]) sph_pairs_row(kernel, dim, 3, true, &L, i, buf, bM, jb);
+    else sph_pairs_row(kernel, dim, shape, false, &L, i, buf, bM, jb);
   }
 }
 
@@ -1375,7 +1361,7 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
       .visc_kernel = s->cfg.shape_viscosity == SPH_SHAPE_VISC_KERNEL,
       .energy_own = s->cfg.shape_energy == SPH_SHAPE_ENERGY_OWN,
       .cont_sym = s->cfg.shape_continuity == SPH_SHAPE_CONT_SYMMETRIC,
-      .keep = s->keep && ej_set_count(set) <= s->keep_cap ? s->keep : NULL};
+      .kept = s->kept && ej_set_count(set) <= s->kept_cap ? s->kept : NULL, .kept_n = s->kept_n};
   EJ_ENSURE(A.x && A.v && A.m && A.rho && A.p_rho2 && A.c && A.h && A.w_cont && A.a && A.rho_dot && A.e_dot && A.w_dot &&
                 A.mu_max,
             EJ_ERR_INTERNAL, "set '%s': sph fields missing", s->set_name);
@@ -1493,11 +1479,8 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
                                                      ej_off *k, const ej_off kend, const ej_real xi0,
                                                      const ej_real xi1, const ej_real xi2, const ej_real hi,
                                                      ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
-                                                     ej_real *restrict bh, ej_idx *restrict jb,
-                                                     uint64_t *restrict km, const ej_off kbase)
+                                                     ej_real *restrict bh, ej_idx *restrict jb)
 {
-  /* km (the shape pass, or NULL): the kept entries' bits are or-ed into the row's mask words, bit
-   * (kk - kbase) for list entry kk (test_sph_shape_masks: rows of several blocks and words) */
   int nk = 0;
   ej_off kk = *k;
 #if defined(__AVX2__)
@@ -1526,12 +1509,6 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
       _mm_storeu_si128((__m128i *)(void *)(jb + nk),
                        _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castsi128_si256(j4), pj)));
       nk += __builtin_popcount((unsigned)msk);
-      if (km) { /* a group after a block's scalar tail may straddle two words */
-        const ej_off pos = kk - kbase;
-        const unsigned sh = (unsigned)(pos & 63);
-        km[pos >> 6] |= (uint64_t)msk << sh;
-        if (sh > 60) km[(pos >> 6) + 1] |= (uint64_t)msk >> (64 - sh);
-      }
     }
   }
 #endif
@@ -1542,9 +1519,7 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
     const ej_real d0 = xi0 - xj0, d1 = dim > 1 ? xi1 - xj1 : 0.0, d2 = dim > 2 ? xi2 - xj2 : 0.0;
     const ej_real r2 = d0 * d0 + d1 * d1 + d2 * d2;
     bx[nk] = xj0, by[nk] = xj1, bz[nk] = xj2, bh[nk] = hj, jb[nk] = j;
-    const bool in = r2 < 4.0 * hb * hb;
-    if (km) km[(kk - kbase) >> 6] |= (uint64_t)in << ((kk - kbase) & 63);
-    nk += in;
+    nk += r2 < 4.0 * hb * hb;
   }
   *k = kk;
   return nk;
@@ -2360,20 +2335,28 @@ static ej_err sph_check_config(const void *config, ej_diag *diag)
 
 /* The fields each pass writes (ABI 1.3 pass_writes: the core then copies to the ghosts only what
  * was written since the last refresh). Listed for the gas form with continuity density, the
- * kernel gradient without correction, planar geometry and no conductivity (passes: particle,
- * pairs; post_step: the density floor); every other configuration answers -1 (every field). */
+ * kernel gradient without correction or the shape tensor, planar geometry and no conductivity
+ * (passes: particle, [shape: M_inv and its fallback flag], pairs; post_step: the density floor);
+ * every other configuration answers -1 (every field). */
 static int sph_pass_writes(const void *state, int pass, const char **names, int max)
 {
   const sph_state *s = state;
   const sph_config *cfg = &s->cfg;
-  if (cfg->strength || cfg->density == SPH_DENS_SUMMATION || sph_has_matrix_pass(cfg) ||
-      cfg->geometry != SPH_GEOM_PLANAR || cfg->conductivity > 0.0 || max < 6)
+  if (cfg->strength || cfg->density == SPH_DENS_SUMMATION || cfg->correction || cfg->geometry != SPH_GEOM_PLANAR ||
+      cfg->conductivity > 0.0 || max < 6)
     return -1;
+  const bool shape = cfg->gradient == SPH_GRAD_SHAPE;
   static const char *const particle[] = {"rho", "h", "p", "c", "p_rho2", "w_cont"};
+  static const char *const shape_f[] = {"M_inv", "grad_fallback"};
   static const char *const pairs[] = {"a", "rho_dot", "e_dot", "w_visc_dot", "mu_max"};
   static const char *const post[] = {"rho"};
-  const char *const *l = pass == EJ_PASS_POST_STEP ? post : pass == 0 ? particle : pass == 1 ? pairs : NULL;
-  const int n = pass == EJ_PASS_POST_STEP ? 1 : pass == 0 ? 6 : pass == 1 ? 5 : -1;
+  const int pair_pass = shape ? 2 : 1;
+  const char *const *l = pass == EJ_PASS_POST_STEP ? post
+                         : pass == 0               ? particle
+                         : shape && pass == 1      ? shape_f
+                         : pass == pair_pass       ? pairs
+                                                   : NULL;
+  const int n = pass == EJ_PASS_POST_STEP ? 1 : pass == 0 ? 6 : shape && pass == 1 ? 2 : pass == pair_pass ? 5 : -1;
   for (int k = 0; k < n; ++k) names[k] = l[k];
   return n;
 }
