@@ -839,6 +839,35 @@ static ej_err sph_shape_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr,
   return EJ_OK;
 }
 
+/* The end of a row of the pair loops (sph_pairs, sph_pairs_row): a, the continuity rate, e_dot,
+ * w_visc_dot and mu_max of particle i. The kernel sum sum_j V_j x_ji . grad_i W_ij (-norm) equals
+ * dim only for an exact quadrature; at h = 1.3 dx it is off by a few per cent, and that bias goes
+ * straight into the density of every compressed or expanded particle (3.5 % behind the Sod shock).
+ * Dividing by it (the trace of the Randles & Libersky 1996 normalisation, CMAME 139, 375) makes the
+ * divergence of any isotropic linear velocity field exact; mass, momentum and energy conservation
+ * are untouched (masses are fixed, the continuity equation is not in them). The factor only removes
+ * a quadrature bias of a few per cent. Far from 1, the support is truncated or sparse (free
+ * surface, a disordered shock front) and the sum says nothing about the bias: clamp it rather than
+ * amplify noise into the density. */
+static inline SPH_ALWAYS_INLINE void sph_row_store(const sph_pair_args *A, ej_idx i, const int dim, const bool ren,
+                                                  const bool volume_form, ej_real rhoi, ej_real ax, ej_real ay,
+                                                  ej_real az, ej_real drho, ej_real norm, ej_real de, ej_real dw,
+                                                  ej_real mumax)
+{
+  A->a[3 * i] += ax;
+  if (dim > 1) A->a[3 * i + 1] += ay;
+  if (dim > 2) A->a[3 * i + 2] += az;
+  if (ren && norm < 0.0) {
+    ej_real fac = -(ej_real)dim / (volume_form ? norm : norm / rhoi);
+    fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
+    drho *= fac;
+  }
+  if (A->cont_rate) A->rho_dot[i] += volume_form ? rhoi * drho : drho;
+  A->e_dot[i] += 0.5 * de;
+  A->w_dot[i] += 0.5 * dw;
+  A->mu_max[i] = mumax;
+}
+
 /* The pair loop. kernel and dim are compile-time constants at every call site (the function
  * is always inlined into a switch), so the kernel branch and the dimension masks fold away.
  *
@@ -870,8 +899,6 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
   const ej_real *restrict w_cont = A->w_cont, *restrict L = A->L, *restrict M = A->M;
   const int32_t *restrict fb = A->fb;
   const bool volume_form = A->volume_form, renormalize = A->renormalize && !corr;
-  ej_real *restrict a = A->a, *restrict rho_dot = A->rho_dot, *restrict e_dot = A->e_dot;
-  ej_real *restrict w_dot = A->w_dot, *restrict mu_max = A->mu_max;
   const ej_off *restrict off = A->off;
   const ej_idx *restrict idx = A->idx;
   const ej_real alpha = A->alpha, beta = A->beta, eta2 = A->eta2;
@@ -980,30 +1007,9 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
       de += fP * vG;
       dw += mj * pi_ij * vG;
     }
-    a[3 * i] += ax;
-    if (dim > 1) a[3 * i + 1] += ay;
-    if (dim > 2) a[3 * i + 2] += az;
-    /* The kernel sum sum_j V_j x_ji . grad_i W_ij equals dim only for an exact quadrature;
-     * at h = 1.3 dx it is off by a few per cent, and that bias goes straight into the density
-     * of every compressed or expanded particle (3.5 % behind the Sod shock). Dividing by it
-     * (the trace of the Randles & Libersky 1996 normalisation, CMAME 139, 375) makes the
-     * divergence of any isotropic linear velocity field exact; mass, momentum and energy
-     * conservation are untouched (masses are fixed, the continuity equation is not in them). */
-    if (ren && norm < 0.0) {
-      /* The factor only removes a quadrature bias of a few per cent. Far from 1, the support is
-       * truncated or sparse (free surface, a disordered shock front) and the sum says nothing
-       * about the bias: clamp it rather than amplify noise into the density. */
-      ej_real fac = -(ej_real)dim / (volume_form ? norm : norm / rhoi);
-      fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
-      drho *= fac;
-    }
-    if (A->cont_rate) rho_dot[i] += volume_form ? rhoi * drho : drho;
-    e_dot[i] += 0.5 * de;
-    w_dot[i] += 0.5 * dw;
-    mu_max[i] = mumax;
+    sph_row_store(A, i, dim, ren, volume_form, rhoi, ax, ay, az, drho, norm, de, dw, mumax);
   }
 }
-
 
 /* The pair loop of the kernel gradient (no correction) and of the shape tensor, in blocks of up
  * to SPH_BLK entries of a row: (1) gather the neighbours' data into contiguous buffers (a scalar
@@ -1035,8 +1041,6 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
    * vectorised loop carries neither the unused branch nor its selects (the same expressions) */
   const bool sym = shape >= 2;
   const bool volume_form = shape == 3 || A->volume_form, renormalize = A->renormalize;
-  ej_real *restrict a = A->a, *restrict rho_dot = A->rho_dot, *restrict e_dot = A->e_dot;
-  ej_real *restrict w_dot = A->w_dot, *restrict mu_max = A->mu_max;
   const ej_off *restrict off = A->off;
   const ej_idx *restrict idx = A->idx;
   const ej_real alpha = A->alpha, beta = A->beta, eta2 = A->eta2;
@@ -1260,18 +1264,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
       }
     }
   }
-  a[3 * i] += ax;
-  if (dim > 1) a[3 * i + 1] += ay;
-  if (dim > 2) a[3 * i + 2] += az;
-  if (ren && norm < 0.0) { /* as in sph_pairs */
-    ej_real fac = -(ej_real)dim / (volume_form ? norm : norm / rhoi);
-    fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
-    drho *= fac;
-  }
-  if (A->cont_rate) rho_dot[i] += volume_form ? rhoi * drho : drho;
-  e_dot[i] += 0.5 * de;
-  w_dot[i] += 0.5 * dw;
-  mu_max[i] = mumax;
+  sph_row_store(A, i, dim, ren, volume_form, rhoi, ax, ay, az, drho, norm, de, dw, mumax);
 }
 
 static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const int dim, const int shape,
