@@ -655,6 +655,37 @@ static inline RK_ALWAYS_INLINE void rk_taylor_parts(const int dim, ej_real m0, c
   }
 }
 
+/* Face-point moment accumulators of a node by padded position (face groups, rk_faces_init):
+ * m0 = sum phi, m_a = sum phi h_a, m_ab = sum phi h_a h_b with h = (x_f - x_J)/l (003 Eq 5). */
+enum { RK_M0, RK_M1, RK_M2, RK_M3, RK_M11, RK_M22, RK_M33, RK_M12, RK_M13, RK_M23, RK_NM };
+
+/* One face group's 4 lanes: the moments over its listed neighbours lst[0..cnt), added in
+ * neighbour order to a[RK_NM][4] (registers once inlined); the kernel values are kept in
+ * wk[t][lane] when wk is not NULL. c*, ia: the neighbours' x_L - x_J and 1/a_J; o*: the lanes'
+ * face-point offsets. */
+static inline RK_ALWAYS_INLINE void rk_group_moments(const int dim, const int cnt, const int *restrict lst,
+                                                    const ej_real *restrict cx, const ej_real *restrict cy,
+                                                    const ej_real *restrict cz, const ej_real *restrict ia,
+                                                    const ej_real o0[4], const ej_real o1[4], const ej_real o2[4],
+                                                    const ej_real inv_l, ej_real a[RK_NM][4], ej_real (*restrict wk)[4])
+{
+  for (int t = 0; t < cnt; ++t) {
+    const int jn = lst[t];
+    const ej_real c0 = cx[jn], c1 = cy[jn], c2 = cz[jn], inv_aj = ia[jn];
+#pragma omp simd
+    for (int l = 0; l < 4; ++l) {
+      const ej_real d0 = c0 + o0[l], d1 = dim > 1 ? c1 + o1[l] : 0.0, d2 = dim > 2 ? c2 + o2[l] : 0.0;
+      const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
+      const ej_real h1 = d0 * inv_l, h2 = d1 * inv_l, h3 = d2 * inv_l;
+      if (wk) wk[t][l] = w;
+      a[RK_M0][l] += w, a[RK_M1][l] += w * h1, a[RK_M11][l] += w * h1 * h1;
+      if (dim > 1) a[RK_M2][l] += w * h2, a[RK_M22][l] += w * h2 * h2, a[RK_M12][l] += w * h1 * h2;
+      if (dim > 2)
+        a[RK_M3][l] += w * h3, a[RK_M33][l] += w * h3 * h3, a[RK_M13][l] += w * h1 * h3, a[RK_M23][l] += w * h2 * h3;
+    }
+  }
+}
+
 /* First row (b0, b) of M^-1 at the face points of a node from the accumulated moments (by
  * padded position), stored by padded position into b; returns the number of flagged points. */
 static inline RK_ALWAYS_INLINE int rk_face_rows(const int n, const rk_state *s, const ej_real ftol,
@@ -749,10 +780,7 @@ static inline RK_ALWAYS_INLINE void rk_box_moment_rows(const int dim, const rk_s
       for (int d = 0; d < 3; ++d) gcx[g][d] = hq * s->gc[g][d];
       grx[g] = hq * s->gr[g];
     }
-    /* Accumulators by padded position p (face groups, rk_faces_init). */
-    ej_real A0[RK_NF_MAX] = {0}, A1[RK_NF_MAX] = {0}, A2[RK_NF_MAX] = {0}, A3[RK_NF_MAX] = {0};
-    ej_real A11[RK_NF_MAX] = {0}, A22[RK_NF_MAX] = {0}, A33[RK_NF_MAX] = {0};
-    ej_real A12[RK_NF_MAX] = {0}, A13[RK_NF_MAX] = {0}, A23[RK_NF_MAX] = {0};
+    ej_real Am[RK_NM][RK_NF_MAX] = {{0}}; /* accumulators by padded position (RK_M0 ...) */
     /* Face-point offsets hq q by padded position (the same products as before). */
     ej_real hq0[RK_NF_MAX], hq1[RK_NF_MAX], hq2[RK_NF_MAX];
     for (int p = 0; p < 4 * ng; ++p) hq0[p] = hq * q0[p], hq1[p] = hq * q1[p], hq2[p] = hq * q2[p];
@@ -786,35 +814,18 @@ static inline RK_ALWAYS_INLINE void rk_box_moment_rows(const int dim, const rk_s
       }
       for (int g = 0; g < ng; ++g) {
         const int p0 = 4 * g;
-        ej_real o0[4], o1[4], o2[4];
-        ej_real a0[4], a1[4], a2[4], a3[4], a11[4], a22[4], a33[4], a12[4], a13[4], a23[4];
+        ej_real o0[4], o1[4], o2[4], a[RK_NM][4];
         for (int l = 0; l < 4; ++l) {
           o0[l] = hq0[p0 + l], o1[l] = hq1[p0 + l], o2[l] = hq2[p0 + l];
-          a0[l] = A0[p0 + l], a1[l] = A1[p0 + l], a2[l] = A2[p0 + l], a3[l] = A3[p0 + l];
-          a11[l] = A11[p0 + l], a22[l] = A22[p0 + l], a33[l] = A33[p0 + l];
-          a12[l] = A12[p0 + l], a13[l] = A13[p0 + l], a23[l] = A23[p0 + l];
+          for (int m = 0; m < RK_NM; ++m) a[m][l] = Am[m][p0 + l];
         }
-        for (int t = 0; t < cnt[g]; ++t) {
-          const int jn = lst[g][t];
-          const ej_real c0 = cx[jn], c1 = cy[jn], c2 = cz[jn], inv_aj = ia[jn];
-#pragma omp simd
-          for (int l = 0; l < 4; ++l) {
-            const ej_real d0 = c0 + o0[l], d1 = dim > 1 ? c1 + o1[l] : 0.0, d2 = dim > 2 ? c2 + o2[l] : 0.0;
-            const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
-            const ej_real h1 = d0 * inv_l, h2 = d1 * inv_l, h3 = d2 * inv_l;
-            a0[l] += w, a1[l] += w * h1, a11[l] += w * h1 * h1;
-            if (dim > 1) a2[l] += w * h2, a22[l] += w * h2 * h2, a12[l] += w * h1 * h2;
-            if (dim > 2) a3[l] += w * h3, a33[l] += w * h3 * h3, a13[l] += w * h1 * h3, a23[l] += w * h2 * h3;
-          }
-        }
-        for (int l = 0; l < 4; ++l) {
-          A0[p0 + l] = a0[l], A1[p0 + l] = a1[l], A2[p0 + l] = a2[l], A3[p0 + l] = a3[l];
-          A11[p0 + l] = a11[l], A22[p0 + l] = a22[l], A33[p0 + l] = a33[l];
-          A12[p0 + l] = a12[l], A13[p0 + l] = a13[l], A23[p0 + l] = a23[l];
-        }
+        rk_group_moments(dim, cnt[g], lst[g], cx, cy, cz, ia, o0, o1, o2, inv_l, a, NULL);
+        for (int l = 0; l < 4; ++l)
+          for (int m = 0; m < RK_NM; ++m) Am[m][p0 + l] = a[m][l];
       }
     }
-    s->fflag[id[L]] = rk_face_rows(n, s, ftol, A0, A1, A2, A3, A11, A22, A33, A12, A13, A23,
+    s->fflag[id[L]] = rk_face_rows(n, s, ftol, Am[RK_M0], Am[RK_M1], Am[RK_M2], Am[RK_M3], Am[RK_M11], Am[RK_M22],
+                                   Am[RK_M33], Am[RK_M12], Am[RK_M13], Am[RK_M23],
                                    s->fb + (size_t)id[L] * RK_NF_MAX * 4);
   }
 }
@@ -905,43 +916,21 @@ static inline RK_ALWAYS_INLINE int rk_box_fused_node(const int dim, const rk_sta
     rk_taylor_guard(s, A, id, one);
     return 0;
   }
-  ej_real A0[RK_NF_MAX] = {0}, A1[RK_NF_MAX] = {0}, A2[RK_NF_MAX] = {0}, A3[RK_NF_MAX] = {0};
-  ej_real A11[RK_NF_MAX] = {0}, A22[RK_NF_MAX] = {0}, A33[RK_NF_MAX] = {0};
-  ej_real A12[RK_NF_MAX] = {0}, A13[RK_NF_MAX] = {0}, A23[RK_NF_MAX] = {0};
+  ej_real Am[RK_NM][RK_NF_MAX]; /* moments by padded position (RK_M0 ...) */
   ej_real hq0[RK_NF_MAX], hq1[RK_NF_MAX], hq2[RK_NF_MAX];
   for (int p = 0; p < 4 * ng; ++p) hq0[p] = hq * q0[p], hq1[p] = hq * q1[p], hq2[p] = hq * q2[p];
   ej_real wk[RK_IT_FUSE][4]; /* kernel values by (group, list position) and lane */
   for (int g = 0, it = 0; g < ng; it += cnt[g], ++g) {
     const int p0 = 4 * g;
-    ej_real o0[4], o1[4], o2[4];
-    ej_real a0[4], a1[4], a2[4], a3[4], a11[4], a22[4], a33[4], a12[4], a13[4], a23[4];
-    for (int l = 0; l < 4; ++l) {
-      o0[l] = hq0[p0 + l], o1[l] = hq1[p0 + l], o2[l] = hq2[p0 + l];
-      a0[l] = a1[l] = a2[l] = a3[l] = a11[l] = a22[l] = a33[l] = a12[l] = a13[l] = a23[l] = 0.0;
-    }
-    for (int t = 0; t < cnt[g]; ++t) {
-      const int jn = lst[g][t];
-      const ej_real c0 = cx[jn], c1 = cy[jn], c2 = cz[jn], inv_aj = ia[jn];
-      ej_real *restrict wt = wk[it + t];
-#pragma omp simd
-      for (int l = 0; l < 4; ++l) {
-        const ej_real d0 = c0 + o0[l], d1 = dim > 1 ? c1 + o1[l] : 0.0, d2 = dim > 2 ? c2 + o2[l] : 0.0;
-        const ej_real w = rk_phi_bl(sqrt(d0 * d0 + d1 * d1 + d2 * d2) * inv_aj);
-        const ej_real h1 = d0 * inv_l, h2 = d1 * inv_l, h3 = d2 * inv_l;
-        wt[l] = w;
-        a0[l] += w, a1[l] += w * h1, a11[l] += w * h1 * h1;
-        if (dim > 1) a2[l] += w * h2, a22[l] += w * h2 * h2, a12[l] += w * h1 * h2;
-        if (dim > 2) a3[l] += w * h3, a33[l] += w * h3 * h3, a13[l] += w * h1 * h3, a23[l] += w * h2 * h3;
-      }
-    }
-    for (int l = 0; l < 4; ++l) {
-      A0[p0 + l] = a0[l], A1[p0 + l] = a1[l], A2[p0 + l] = a2[l], A3[p0 + l] = a3[l];
-      A11[p0 + l] = a11[l], A22[p0 + l] = a22[l], A33[p0 + l] = a33[l];
-      A12[p0 + l] = a12[l], A13[p0 + l] = a13[l], A23[p0 + l] = a23[l];
-    }
+    ej_real o0[4], o1[4], o2[4], a[RK_NM][4] = {{0}};
+    for (int l = 0; l < 4; ++l) o0[l] = hq0[p0 + l], o1[l] = hq1[p0 + l], o2[l] = hq2[p0 + l];
+    rk_group_moments(dim, cnt[g], lst[g], cx, cy, cz, ia, o0, o1, o2, inv_l, a, wk + it);
+    for (int l = 0; l < 4; ++l)
+      for (int m = 0; m < RK_NM; ++m) Am[m][p0 + l] = a[m][l];
   }
   ej_real *row = s->fb + (size_t)id[L] * RK_NF_MAX * 4;
-  s->fflag[id[L]] = rk_face_rows(n, s, ftol, A0, A1, A2, A3, A11, A22, A33, A12, A13, A23, row);
+  s->fflag[id[L]] = rk_face_rows(n, s, ftol, Am[RK_M0], Am[RK_M1], Am[RK_M2], Am[RK_M3], Am[RK_M11], Am[RK_M22],
+                                 Am[RK_M33], Am[RK_M12], Am[RK_M13], Am[RK_M23], row);
   rk_taylor_guard(s, A, id, one);
   /* Interpolation (pass 1, rk_box_grad_rows), b scaled by 1/l as there. A flagged face point
    * (b0 = -1 in the row) takes the node's Taylor form with the pieces of rk_box_grad_rows; its

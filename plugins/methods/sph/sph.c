@@ -1159,7 +1159,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
       const ej_real r2 = rx * rx + ry * ry + rz * rz;
       const ej_real hbar = 0.5 * (hi + bh[q]);
       /* every gathered entry passed r2 < 4 hbar^2 with these operations (sph_pairs_gather, or the
-       * shape pass's masks: the same r2 and hbar), so the skin selects below fold away */
+       * shape pass's kept-neighbour slots: the same r2 and hbar), so the skin selects below fold away */
       const bool keep = true;
       (void)r2;
       /* A coincident pair has f'(0) = 0 for both kernels: clamping r keeps 0 * finite. */
