@@ -22,8 +22,11 @@ verdict (with passive waiting it leaves out the time a thread waits: an upper bo
 The load-independent estimate is thread_split.py (callgrind instructions per thread).
 
 Usage: run.py [--ejecta PATH] [--big SCALE] [--no-big] [--big-steps N] [--only-big] [--steps N] [--repeats R]
-  --repeats R: each timed ejecta run of the small target is the best of R (default 3; wall times are
-  measured around the child with time.perf_counter, not /usr/bin/time's 10 ms steps).
+  --repeats R: each timed ejecta number of the small target is the best of R rounds (default 5); a
+  round runs the six timed configurations (1 and 2 threads, the full run and the 1-step set-up run,
+  passive and default waiting) one after the other, so that the host's busy spells fall on all of
+  them alike. Wall times are measured around the child with time.perf_counter, not /usr/bin/time's
+  10 ms steps.
   --big SCALE: also run the target enlarged SCALE times in every direction (3487 SCALE^3
   particles; 7 gives 1,091,483) with both codes: LAMMPS 5 steps (its loop time), ejecta
   --big-steps steps (default 25) minus a 1-step run (set-up: CSV import, families), 1 and 2
@@ -60,7 +63,7 @@ EJECTA = arg("--ejecta", os.path.join(ROOT, "build", "bin", "ejecta"))
 STEPS = int(arg("--steps", "1000"))
 BIG = 0 if "--no-big" in sys.argv else int(arg("--big", "7"))
 BIG_STEPS = int(arg("--big-steps", "25"))  # ejecta steps of the enlarged run (LAMMPS: 5, its loop time is direct)
-REPEATS = int(arg("--repeats", "3"))  # runs behind each timed ejecta number of the small target (best of)
+REPEATS = int(arg("--repeats", "5"))  # rounds behind each timed ejecta number of the small target (best of)
 ONLY_BIG = "--only-big" in sys.argv  # rerun the enlarged target only, keeping the rest of results.json
 
 
@@ -178,15 +181,15 @@ def ejecta_scene(model, workdir, steps, csv, fields="[v, damage]", every=1.0e-5)
     return path
 
 
-def run_ejecta_best(scene, workdir, threads, out="out.h5", policy="passive", repeats=None):
-    """run_ejecta repeated (--repeats, default 3): the smallest wall and the smallest CPU time (each
-    over the repeats), the largest RSS. One run of a ~1 s loop is at the mercy of one hiccup of a
-    shared machine (a daemon waking, the other vCPU stolen for a moment); the other benchmarks of
-    make bench take the best of 3 for the same reason."""
-    best = None
-    for _ in range(repeats or REPEATS):
-        out_, w, c, rss = run_ejecta(scene, workdir, threads, out=out, policy=policy)
-        best = (out_, w, c, rss) if best is None else (out_, min(best[1], w), min(best[2], c), max(best[3], rss))
+def run_ejecta_rounds(workdir, configs, rounds=None):
+    """Runs each (key, scene, threads, out, policy) of configs once per round, the configurations
+    in turn, for --repeats rounds: {key: (smallest wall, smallest CPU, largest RSS)} over the rounds."""
+    best = {}
+    for _ in range(rounds or REPEATS):
+        for key, scene, threads, out, policy in configs:
+            _, w, c, rss = run_ejecta(scene, workdir, threads, out=out, policy=policy)
+            b = best.get(key)
+            best[key] = (w, c, rss) if b is None else (min(b[0], w), min(b[1], c), max(b[2], rss))
     return best
 
 
@@ -269,15 +272,18 @@ def main():
         os.makedirs(we)
         scene = ejecta_scene(model, we, STEPS, csv)
         scene1 = ejecta_scene(model, we, 1, csv, every=0)
-        _, wall_e1, cpu_e1, rss_e = run_ejecta_best(scene, we, 1)
+        # the six timed configurations in rounds (each round runs all six in turn; each number is the
+        # best over the rounds), so that a busy spell of the shared host hits the 1- and 2-thread
+        # runs alike instead of all the repeats of one of them
+        best = run_ejecta_rounds(we, [("e1", scene, 1, "out.h5", "passive"), ("e2", scene, 2, "out2.h5", "passive"),
+                                      ("s1", scene1, 1, "setup1.h5", "passive"), ("s2", scene1, 2, "setup2.h5", "passive"),
+                                      ("d2", scene, 2, "out2d.h5", None), ("sd2", scene1, 2, "setup2d.h5", None)])
+        (wall_e1, cpu_e1, rss_e), (wall_e2, cpu_e2, rss_e2) = best["e1"], best["e2"]
+        (wall_s1, cpu_s1, _), (wall_s2, cpu_s2, _) = best["s1"], best["s2"]
+        wall_d2, wall_sd2 = best["d2"][0], best["sd2"][0]
         ser, extra, xe, de, _ = read_ejecta(os.path.join(we, "out.h5"))
-        _, wall_e2, cpu_e2, rss_e2 = run_ejecta_best(scene, we, 2, out="out2.h5")
         ser2, extra2, _, de2, _ = read_ejecta(os.path.join(we, "out2.h5"))
         bitwise_2t = bool(np.array_equal(de, de2) and np.array_equal(ser["kinetic"], ser2["kinetic"]))
-        _, wall_s1, cpu_s1, _ = run_ejecta_best(scene1, we, 1, out="setup1.h5")
-        _, wall_s2, cpu_s2, _ = run_ejecta_best(scene1, we, 2, out="setup2.h5")
-        _, wall_d2, _, _ = run_ejecta_best(scene, we, 2, out="out2d.h5", policy=None)
-        _, wall_sd2, _, _ = run_ejecta_best(scene1, we, 2, out="setup2d.h5", policy=None)
         wloop_d2 = max(wall_d2 - wall_sd2, 1e-9)
         loop_e1 = max(cpu_e1 - cpu_s1, 1e-9)
         loop_e2 = max(cpu_e2 - cpu_s2, 1e-9)

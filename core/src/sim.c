@@ -885,27 +885,24 @@ static ej_err ej_due_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_rang
   return EJ_OK;
 }
 
+/* Whether the step's skin watch covers s: sets searched in the current configuration and sets
+ * an interaction searches. */
+static bool ej_due_watched(const ej_set *s) { return s->nbr_config == EJ_NBR_CURRENT || s->in_interaction; }
+
 /* A rebuild is due when a pair now inside max(R_i, R_j) may have been outside the list's
- * reach at the last build: 2 max|x - x_build| + max(R - R_build) > skin. */
-static ej_err ej_rebuild_due(ej_sim *sim, bool *due)
+ * reach at the last build: 2 max|x - x_build| + max(R - R_build) > skin. Reads s's chunk maxima of
+ * ej_due_chunk (run in the kick-drift region of the step, ej_kick_drift_chunk). */
+static bool ej_due_reduce(const ej_sim *sim, const ej_set *s)
 {
-  *due = false;
-  for (int i = 0; i < sim->n_sets; ++i) {
-    ej_set *s = sim->sets[i];
-    if (s->nbr_config != EJ_NBR_CURRENT && !s->in_interaction) continue;
-    EJ_TRY(ej_sim_scratch(sim, s));
-    EJ_TRY(ej_for_chunks(sim, s, ej_due_chunk, NULL));
-    ej_real d2 = 0, grow = 0, rmax = 0;
-    const int64_t nch = ej_chunk_count(s);
-    for (int64_t c = 0; c < nch; ++c) {
-      const ej_real *cs = sim->chunk_scratch + c * EJ_NSLOT;
-      d2 = cs[0] > d2 ? cs[0] : d2;
-      grow = cs[1] > grow ? cs[1] : grow;
-      rmax = cs[2] > rmax ? cs[2] : rmax;
-    }
-    if (2 * sqrt(d2) + grow > sim->scene->skin * rmax) *due = true;
+  ej_real d2 = 0, grow = 0, rmax = 0;
+  const int64_t nch = ej_chunk_count(s);
+  for (int64_t c = 0; c < nch; ++c) {
+    const ej_real *cs = sim->chunk_scratch + c * EJ_NSLOT;
+    d2 = cs[0] > d2 ? cs[0] : d2;
+    grow = cs[1] > grow ? cs[1] : grow;
+    rmax = cs[2] > rmax ? cs[2] : rmax;
   }
-  return EJ_OK;
+  return 2 * sqrt(d2) + grow > sim->scene->skin * rmax;
 }
 
 /* ------------------------------------------------------------------ forces */
@@ -1146,6 +1143,11 @@ static ej_err ej_next_dt(ej_sim *sim)
   return EJ_OK;
 }
 
+typedef struct ej_kd_ctx {
+  bool zero; /* zero a and the rates (the step loop; ej_compute_all then does not) */
+  bool due;  /* and compute the chunk's skin watch maxima (ej_due_chunk) */
+} ej_kd_ctx;
+
 /* First half kick, drift, and the predictor of velocity and rate fields for the force
  * evaluation at t_n+1 (velocity Verlet; state fields integrated with the same trapezoid). */
 static ej_err ej_kick_drift_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
@@ -1190,7 +1192,10 @@ static ej_err ej_kick_drift_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, 
     }
   }
   /* a and the rates are not read again before the passes: zero them here (ej_compute_all) */
-  if (ctx) return ej_zero_chunk(sim, s, NULL, c, r);
+  const ej_kd_ctx *kc = ctx;
+  if (kc && kc->zero) EJ_TRY(ej_zero_chunk(sim, s, NULL, c, r));
+  /* the skin watch of the drifted chunk (ej_due_chunk: own particles only), in the same region */
+  if (kc && kc->due) return ej_due_chunk(sim, s, NULL, c, r);
   return EJ_OK;
 }
 
@@ -1223,6 +1228,27 @@ static ej_err ej_kick_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
 }
 
 /* ------------------------------------------------------------------ diagnostics */
+
+static ej_err ej_diag_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r);
+
+typedef struct ej_end_ctx {
+  bool post;      /* the method's post_step (post_step_local) after the kick of the chunk */
+  bool diag;      /* then the chunk's energy sums and watchdog (ej_diag_chunk) */
+  bool with_work; /* ej_diag_chunk's ctx */
+} ej_end_ctx;
+
+/* The end of the step for one chunk, in one parallel region per set: second half kick, the
+ * method's post_step when it is local to its range (ej_method_ops.post_step_local), the
+ * diagnostics. Each particle sees the same operations in the same order as with one region for
+ * each, and nothing outside the chunk that these write is read. */
+static ej_err ej_end_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  const ej_end_ctx *ec = ctx;
+  EJ_TRY(ej_kick_chunk(sim, s, NULL, c, r));
+  if (ec->post) EJ_TRY(s->mops->post_step(s->mstate, s, r));
+  if (ec->diag) return ej_diag_chunk(sim, s, (void *)&ec->with_work, c, r);
+  return EJ_OK;
+}
 
 enum { EJ_R_KIN, EJ_R_INT, EJ_R_VISC, EJ_R_PLAS, EJ_R_HG, EJ_R_PX, EJ_R_PY, EJ_R_PZ };
 
@@ -1420,29 +1446,42 @@ static ej_err ej_watch_fail(ej_sim *sim, const ej_set *s, ej_idx bad, int fk)
           f->name, (long long)sim->step, sim->t, s->name, id[bad], x[3 * bad], x[3 * bad + 1], x[3 * bad + 2]);
 }
 
-/* Energy budget (with the step's work of gravity and prescribed velocities when with_work), the
- * plugins' series, then the watchdog: the first bad particle of the first set that has one
- * (lowest chunk, then lowest index, then lowest field), whatever the thread count. */
-static ej_err ej_diagnostics(ej_sim *sim, bool with_work)
+/* The step's sums over the sets, added set by set in set order and chunk by chunk in chunk
+ * order (the same sums whichever region computed the chunks' parts). */
+typedef struct ej_diag_acc {
+  ej_real tot[EJ_NRED], work;
+  const ej_set *bad_set;
+  ej_idx bad;
+  int bad_f;
+} ej_diag_acc;
+
+static void ej_diag_init(ej_diag_acc *A)
 {
-  ej_real tot[EJ_NRED] = {0}, work = 0;
-  const ej_set *bad_set = NULL;
-  ej_idx bad = -1;
-  int bad_f = -1;
-  for (int i = 0; i < sim->n_sets; ++i) {
-    ej_set *s = sim->sets[i];
-    EJ_TRY(ej_sim_scratch(sim, s));
-    const int64_t nch = ej_chunk_count(s);
-    EJ_TRY(ej_for_chunks(sim, s, ej_diag_chunk, &with_work));
-    for (int64_t c = 0; c < nch; ++c) {
-      const ej_real *cs = sim->chunk_scratch + c * EJ_NSLOT;
-      if (with_work) work += cs[EJ_S_WORK];
-      for (int k = 0; k < EJ_NRED; ++k) tot[k] += cs[k];
-      if (!bad_set && cs[EJ_S_BADP] >= 0) bad_set = s, bad = (ej_idx)cs[EJ_S_BADP], bad_f = (int)cs[EJ_S_BADF];
-    }
+  memset(A, 0, sizeof *A);
+  A->bad = -1, A->bad_f = -1;
+}
+
+/* Adds s's chunk results (ej_diag_chunk's slots of the scratch) to A. */
+static void ej_diag_add(const ej_sim *sim, const ej_set *s, bool with_work, ej_diag_acc *A)
+{
+  const int64_t nch = ej_chunk_count(s);
+  for (int64_t c = 0; c < nch; ++c) {
+    const ej_real *cs = sim->chunk_scratch + c * EJ_NSLOT;
+    if (with_work) A->work += cs[EJ_S_WORK];
+    for (int k = 0; k < EJ_NRED; ++k) A->tot[k] += cs[k];
+    if (!A->bad_set && cs[EJ_S_BADP] >= 0) A->bad_set = s, A->bad = (ej_idx)cs[EJ_S_BADP], A->bad_f = (int)cs[EJ_S_BADF];
   }
+}
+
+/* Energy budget from the sums of every set (with the step's work of gravity and prescribed
+ * velocities when they were summed), the plugins' series, then the watchdog: the first bad
+ * particle of the first set that has one (lowest chunk, then lowest index, then lowest field),
+ * whatever the thread count. */
+static ej_err ej_diag_finish(ej_sim *sim, ej_diag_acc *A)
+{
+  ej_real *tot = A->tot;
   ej_comm_sum(tot, EJ_NRED);
-  ej_comm_sum(&work, 1);
+  ej_comm_sum(&A->work, 1);
   ej_energy *E = &sim->energy;
   E->kinetic = tot[EJ_R_KIN];
   E->internal = tot[EJ_R_INT];
@@ -1450,13 +1489,27 @@ static ej_err ej_diagnostics(ej_sim *sim, bool with_work)
   E->plastic = tot[EJ_R_PLAS];
   E->hourglass = tot[EJ_R_HG];
   E->momentum[0] = tot[EJ_R_PX], E->momentum[1] = tot[EJ_R_PY], E->momentum[2] = tot[EJ_R_PZ];
-  E->work_gravity += work;
+  E->work_gravity += A->work;
   ej_real ext_plugins;
   EJ_TRY(ej_reports_collect(sim, &ext_plugins));
   E->external = E->work_gravity + ext_plugins;
   E->balance = E->kinetic + E->internal - E->total0 - E->external;
-  if (bad_set) return ej_watch_fail(sim, bad_set, bad, bad_f);
+  if (A->bad_set) return ej_watch_fail(sim, A->bad_set, A->bad, A->bad_f);
   return EJ_OK;
+}
+
+/* The diagnostics in a region of their own per set (set-up, and steps that cannot fuse them). */
+static ej_err ej_diagnostics(ej_sim *sim, bool with_work)
+{
+  ej_diag_acc A;
+  ej_diag_init(&A);
+  for (int i = 0; i < sim->n_sets; ++i) {
+    ej_set *s = sim->sets[i];
+    EJ_TRY(ej_sim_scratch(sim, s));
+    EJ_TRY(ej_for_chunks(sim, s, ej_diag_chunk, &with_work));
+    ej_diag_add(sim, s, with_work, &A);
+  }
+  return ej_diag_finish(sim, &A);
 }
 
 /* After a numerical failure: a frame and a checkpoint of the state at the failure, so that the
@@ -1645,24 +1698,45 @@ ej_err ej_sim_run(ej_sim *sim)
   const ej_real eps = 1e-12 * (sc->t_end > 0 ? sc->t_end : 1);
   while (sim->t < sc->t_end - eps && (sc->max_steps <= 0 || sim->step < sc->max_steps)) {
     if (sim->t + sim->dt > sc->t_end) sim->dt = sc->t_end - sim->t; /* land on the end time */
-    static const bool zero = true;
     ej_prof.k = 0, ej_prof.in_step = 1;
+    /* first half kick and drift, with the skin watch of the sets that have one in the same
+     * region (ej_kick_drift_chunk) */
+    bool due = false;
     for (int i = 0; i < sim->n_sets; ++i) {
-      sim->sets[i]->ghost_dirty |= sim->sets[i]->step_mask;
-      EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_drift_chunk, (void *)&zero), out);
+      ej_set *s = sim->sets[i];
+      const ej_kd_ctx kc = {.zero = true, .due = ej_due_watched(s)};
+      s->ghost_dirty |= s->step_mask;
+      if (kc.due) EJ_TRY_GOTO(rc, ej_sim_scratch(sim, s), out);
+      EJ_TRY_GOTO(rc, ej_for_chunks(sim, s, ej_kick_drift_chunk, (void *)&kc), out);
+      if (kc.due && ej_due_reduce(sim, s)) due = true;
     }
     sim->t += sim->dt;
     sim->step++;
-    bool due;
-    EJ_TRY_GOTO(rc, ej_rebuild_due(sim, &due), out);
     if (due) EJ_TRY_GOTO(rc, ej_rebuild(sim), out);
     EJ_TRY_GOTO(rc, ej_compute_all(sim, true), out);
+    /* Second half kick, then post_step and the diagnostics: in the kick's region when the method
+     * says its post_step is local (ej_method_ops.post_step_local) and no interaction has a
+     * post_step (ej_end_chunk); otherwise each in a region of its own, in this order. */
+    bool fuse_diag = true;
+    for (int k = 0; k < sim->n_inter; ++k)
+      if (EJ_HAS_OP(sim->inter[k].ops, ej_interaction_ops, post_step)) fuse_diag = false;
+    for (int i = 0; i < sim->n_sets; ++i)
+      if (sim->sets[i]->mops->post_step && !EJ_HAS_OP(sim->sets[i]->mops, ej_method_ops, post_step_local))
+        fuse_diag = false;
+    ej_diag_acc diag;
+    ej_diag_init(&diag);
     for (int i = 0; i < sim->n_sets; ++i) {
-      sim->sets[i]->ghost_dirty |= sim->sets[i]->step_mask;
-      EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_kick_chunk, NULL), out);
+      ej_set *s = sim->sets[i];
+      const ej_end_ctx ec = {.post = s->mops->post_step && EJ_HAS_OP(s->mops, ej_method_ops, post_step_local),
+                             .diag = fuse_diag, .with_work = true};
+      s->ghost_dirty |= s->step_mask;
+      if (ec.post) ej_mark_pass(s, EJ_PASS_POST_STEP);
+      if (ec.diag) EJ_TRY_GOTO(rc, ej_sim_scratch(sim, s), out);
+      EJ_TRY_GOTO(rc, ej_for_chunks(sim, s, ej_end_chunk, (void *)&ec), out);
+      if (ec.diag) ej_diag_add(sim, s, true, &diag);
     }
     for (int i = 0; i < sim->n_sets; ++i)
-      if (sim->sets[i]->mops->post_step) {
+      if (sim->sets[i]->mops->post_step && !EJ_HAS_OP(sim->sets[i]->mops, ej_method_ops, post_step_local)) {
         ej_mark_pass(sim->sets[i], EJ_PASS_POST_STEP);
         EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_post_chunk, NULL), out);
       }
@@ -1674,7 +1748,7 @@ ej_err ej_sim_run(ej_sim *sim)
         EJ_TRY_GOTO(rc, in->ops->post_step(in->state, in->a, in->b), out);
       }
     }
-    EJ_TRY_GOTO(rc, ej_diagnostics(sim, true), out);
+    EJ_TRY_GOTO(rc, fuse_diag ? ej_diag_finish(sim, &diag) : ej_diagnostics(sim, true), out);
     const ej_real dt_used = sim->dt;
     EJ_TRY_GOTO(rc, ej_next_dt(sim), out);
     psteps += n_total;

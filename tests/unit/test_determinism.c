@@ -120,6 +120,58 @@ START_TEST(test_threads_bitwise)
 }
 END_TEST
 
+/* The end-of-step fusion (ABI 1.4 post_step_local: kick, post_step and the diagnostics of a
+ * chunk in one parallel region) gives what separate regions give: the same run with the method's
+ * table copied and the flag cleared, so that post_step and the diagnostics get regions of their
+ * own, must agree bitwise in the state and in the energy budget. */
+START_TEST(test_fused_end_of_step)
+{
+  char dir[64], scene[128], out[128];
+  det_scene(dir, sizeof dir);
+  snprintf(scene, sizeof scene, "%s/tube.yaml", dir);
+  snap a, b;
+  ej_energy ea, eb;
+  det_run(dir, "f1.h5", 2, DET_STEPS, NULL, &a);
+  {
+    snprintf(out, sizeof out, "%s/f2.h5", dir);
+    ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = 2};
+    vrun r;
+    vrun_open(&r, scene, &opts, DET_STEPS);
+    ej_set *s = r.sim->sets[0];
+    ck_assert_ptr_nonnull(s->mops->post_step);
+    ck_assert(s->mops->post_step_local); /* sph declares it: the fused path is the one tested above */
+    ej_method_ops unfused = *s->mops;
+    unfused.post_step_local = false;
+    s->mops = &unfused;
+    vrun_run(&r);
+    ck_assert_int_eq(r.sim->step, DET_STEPS);
+    snap_take(&b, r.sim);
+    eb = r.sim->energy;
+    vrun_free(&r);
+  }
+  {
+    snprintf(out, sizeof out, "%s/f3.h5", dir);
+    ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = 2};
+    vrun r;
+    vrun_open(&r, scene, &opts, DET_STEPS);
+    vrun_run(&r);
+    ea = r.sim->energy;
+    vrun_free(&r);
+  }
+  snap_assert_equal(&a, &b, "fused vs separate end-of-step regions");
+  ck_assert_msg(memcmp(&ea.kinetic, &eb.kinetic, sizeof ea.kinetic) == 0 &&
+                    memcmp(&ea.internal, &eb.internal, sizeof ea.internal) == 0 &&
+                    memcmp(&ea.balance, &eb.balance, sizeof ea.balance) == 0 &&
+                    memcmp(ea.momentum, eb.momentum, sizeof ea.momentum) == 0,
+                "energy budget differs: kinetic %.17g vs %.17g, balance %.17g vs %.17g", ea.kinetic, eb.kinetic,
+                ea.balance, eb.balance);
+  snap_free(&a);
+  snap_free(&b);
+  const char *names[] = {"tube.yaml", "f1.h5", "f1.xdmf", "f2.h5", "f2.xdmf", "f3.h5", "f3.xdmf"};
+  vrun_cleanup(dir, names, 7);
+}
+END_TEST
+
 START_TEST(test_restart_bitwise)
 {
   char dir[64], half[128];
@@ -146,6 +198,7 @@ int main(void)
   tcase_set_timeout(tc, 120);
   tcase_add_test(tc, test_threads_bitwise);
   tcase_add_test(tc, test_restart_bitwise);
+  tcase_add_test(tc, test_fused_end_of_step);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

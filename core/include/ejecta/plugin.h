@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 3 /* members appended to an info or ops struct        */
+#define EJ_ABI_MINOR 4 /* members appended to an info or ops struct        */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -408,6 +408,14 @@ typedef struct ej_method_ops {
    * interactions, or the EOS and strength model: fields the method did not declare itself count
    * as written by every pass), so a field written but not named leaves stale ghosts. */
   int (*pass_writes)(const void *state, int pass, const char **names, int max);
+  /* --- ABI 1.4. post_step(r) writes only particles in r and reads, of the particles outside r,
+   * no field that the second half kick writes (v and the fields integrated from rates): x, x0,
+   * bond flags and fields of the passes are fine. The core then runs it in the kick's parallel
+   * region, each chunk right after its own kick, and (when no set needs a post_step region of
+   * its own and no interaction has a post_step) the step's energy sums and watchdog in that region
+   * too: two parallel regions fewer per step, same results. false (or an older table): post_step
+   * runs in a region of its own after every set's kick. */
+  bool post_step_local;
 } ej_method_ops;
 #define EJ_PASS_POST_STEP (-1) /* pass_writes: the fields post_step writes */
 

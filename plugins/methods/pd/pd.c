@@ -1257,6 +1257,7 @@ static const ej_method_ops pd_ops = {
     .compute = pd_compute,
     .stable_dt = pd_stable_dt,
     .post_step = pd_post_step,
+    .post_step_local = true, /* own rows: s0, damage and the range sums */
     .counters = pd_counters,
     .destroy = pd_destroy,
     .pass_count = pd_pass_count,

@@ -2379,6 +2379,7 @@ static const ej_method_ops sph_ops = {
     .compute = sph_compute,
     .stable_dt = sph_stable_dt,
     .post_step = sph_post_step,
+    .post_step_local = true, /* own particles: the density floor and the XSPH move */
     .counters = sph_counters,
     .pass_count = sph_pass_count,
     .destroy = sph_destroy,

@@ -2201,6 +2201,7 @@ static const ej_method_ops tlpd_ops = {
     .compute = tlpd_compute,
     .stable_dt = tlpd_stable_dt,
     .post_step = tlpd_post_step,
+    .post_step_local = true, /* own rows; reads x, x0 and failed of the other ends, which the kick does not write */
     .counters = tlpd_counters,
     .destroy = tlpd_destroy,
     .pass_count = NULL,
