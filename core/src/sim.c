@@ -1715,11 +1715,15 @@ ej_err ej_sim_run(ej_sim *sim)
     if (due) EJ_TRY_GOTO(rc, ej_rebuild(sim), out);
     EJ_TRY_GOTO(rc, ej_compute_all(sim, true), out);
     /* Second half kick, then post_step and the diagnostics: in the kick's region when the method
-     * says its post_step is local (ej_method_ops.post_step_local) and no interaction has a
-     * post_step (ej_end_chunk); otherwise each in a region of its own, in this order. */
+     * says its post_step is local (ej_method_ops.post_step_local) and every interaction's
+     * post_step only sums (ej_interaction_ops.post_step_sums_only) (ej_end_chunk); otherwise each
+     * in a region of its own, in this order. The interactions' post_steps (serial) come after
+     * every set's kick and post_step either way. */
     bool fuse_diag = true;
     for (int k = 0; k < sim->n_inter; ++k)
-      if (EJ_HAS_OP(sim->inter[k].ops, ej_interaction_ops, post_step)) fuse_diag = false;
+      if (EJ_HAS_OP(sim->inter[k].ops, ej_interaction_ops, post_step) &&
+          !EJ_HAS_OP(sim->inter[k].ops, ej_interaction_ops, post_step_sums_only))
+        fuse_diag = false;
     for (int i = 0; i < sim->n_sets; ++i)
       if (sim->sets[i]->mops->post_step && !EJ_HAS_OP(sim->sets[i]->mops, ej_method_ops, post_step_local))
         fuse_diag = false;

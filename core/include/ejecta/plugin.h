@@ -456,6 +456,11 @@ typedef struct ej_interaction_ops {
    * reads in its own passes (sph_wall fills sph's L_wall, the wall's share of a solid's velocity
    * gradient, before sph's stress pass). */
   int n_pre_passes;
+  /* --- ABI 1.4. post_step writes no particle field of a or b (it sums and advances the plugin's
+   * own state: work, reaction force, a kinematic body). The core may then run the step's energy
+   * sums and watchdog before it, in the sets' end-of-step regions (ej_method_ops.post_step_local).
+   * false (or an older table): the diagnostics wait for it in a region of their own. */
+  bool post_step_sums_only;
 } ej_interaction_ops;
 
 /* ------------------------------------------------------------------ registration */

@@ -287,6 +287,7 @@ static const ej_interaction_ops kc_ops = {
     .both_ways = true,
     .n_passes = 1,
     .post_step = kc_post_step,
+    .post_step_sums_only = true, /* work and force sums only: no particle field written */
     .report = kc_report,
 };
 

@@ -254,6 +254,7 @@ static const ej_interaction_ops ri_ops = {
     .both_ways = false,
     .n_passes = 1,
     .post_step = ri_post_step,
+    .post_step_sums_only = true, /* work and force sums only: no particle field written */
     .report = ri_report,
 };
 

@@ -540,6 +540,7 @@ static const ej_interaction_ops sw_ops = {
     .both_ways = true,
     .n_passes = 2,
     .post_step = sw_post_step,
+    .post_step_sums_only = true, /* work and force sums only: no particle field written */
     .report = sw_report,
     .n_sets = 2,
     .n_pre_passes = 1,
