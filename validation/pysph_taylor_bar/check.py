@@ -14,12 +14,15 @@ force, PEC integrator, dt 1e-9 s, tf 25 us.
 
 ejecta: examples/sph_taylor_bar_2d.yaml (this script generates it from the constants of the copied
 example and checks that the file in examples/ is the same scene): the same particles (checked to
-1e-12 m), the same kernel, h, moduli, yield stress, viscosity, XSPH, velocity and fixed dt. The
-differences (README.md): the plate is a symmetry plane at the plate's position y = 0; the EOS is
-ejecta's `polynomial` with PySPH's cubic coefficients (identical for rho >= rho0 up to the
--gamma/2 c0 mu^4 term PySPH has and a C3 mu^3 term in tension); ejecta's sound speed in the
-viscosity is max(EOS c, material c) where PySPH keeps cs = 4699 m/s; velocity Verlet instead of
-PEC; PySPH's energy equation drops the (v_ij . grad W) factor of its pressure/viscosity term.
+1e-12 m), the same kernel, h, moduli, yield stress, viscosity, XSPH, velocity and fixed dt, and the
+same plate: PySPH's row of plate particles (x = -15.2 mm + i dx, y = 0, mass dx^2 rho0; checked to
+1e-12 m) as a fixed rigid_body set acting through ejecta's `repulsive_wall` interaction (Monaghan's
+boundary force with PySPH's constants: deltap = dx, 0.02 c^2 / y with PySPH's constant cs, h = 2 dx).
+The EOS is ejecta's `polynomial` with PySPH's coefficients and `tension: linear`, T2 = -gamma a0 / 2:
+identical in tension, identical in compression up to PySPH's -gamma c0 mu^4 / 2 term.
+The differences left (README.md): ejecta's sound speed in the viscosity is max(EOS c, material c)
+where PySPH keeps cs = 4699 m/s; velocity Verlet instead of PEC; PySPH's energy equation drops the
+(v_ij . grad W) factor of its pressure/viscosity term; PySPH's yield check leaves s22 out of J.
 --variant also runs ejecta with mie_gruneisen and the physical S1 = 1.8 (sensitivity only).
 
 Measured on the final particles of each code (same definitions for both):
@@ -73,16 +76,24 @@ def load_constants(path):
 
 
 def eos_coefficients(k):
-    """PySPH's MieGruneisenEOS (pysph/sph/solid_mech/hvi.py) for rho >= r0, mu = rho/r0 - 1:
-    p = (1 - gamma mu / 2)(a0 mu + b0 mu^2 + c0 mu^3) + gamma rho e, a0 = r0 C^2,
-    b0 = a0 (1 + 2 (S - 1)), c0 = a0 (2 (S - 1) + 3 (S - 1)^2) (the Hugoniot expanded to third
-    order). As ejecta's polynomial EOS p = C1 mu + C2 mu^2 + C3 mu^3 + (C4 + C5 mu) rho0 e:
-    C1 = a0, C2 = b0 - gamma a0 / 2, C3 = c0 - gamma b0 / 2, C4 = C5 = gamma (gamma rho e =
-    gamma rho0 (1 + mu) e); PySPH's -gamma c0 mu^4 / 2 term has no counterpart."""
+    """PySPH's MieGruneisenEOS (pysph/sph/solid_mech/hvi.py), mu = rho/r0 - 1:
+    p = (1 - gamma mu / 2) P_H + gamma rho e, P_H = a0 mu + b0 mu^2 + c0 mu^3 for mu > 0 and a0 mu
+    for mu <= 0, a0 = r0 C^2, b0 = a0 (1 + 2 (S - 1)), c0 = a0 (2 (S - 1) + 3 (S - 1)^2) (the
+    Hugoniot expanded to third order). As ejecta's polynomial EOS p = C1 mu + C2 mu^2 + C3 mu^3 +
+    (C4 + C5 mu) rho0 e: C1 = a0, C2 = b0 - gamma a0 / 2, C3 = c0 - gamma b0 / 2, C4 = C5 = gamma
+    (gamma rho e = gamma rho0 (1 + mu) e); PySPH's -gamma c0 mu^4 / 2 term has no counterpart. In
+    tension `tension: linear` with T2 = -gamma a0 / 2 gives p = (1 - gamma mu / 2) a0 mu + gamma rho e,
+    PySPH's tension branch exactly."""
     a0 = k.r0 * k.C * k.C
     b0 = a0 * (1 + 2 * (k.S - 1))
     c0 = a0 * (2 * (k.S - 1) + 3 * (k.S - 1) ** 2)
-    return {"C1": a0, "C2": b0 - 0.5 * k.gamma * a0, "C3": c0 - 0.5 * k.gamma * b0, "C4": k.gamma, "C5": k.gamma}
+    return {"C1": a0, "C2": b0 - 0.5 * k.gamma * a0, "C3": c0 - 0.5 * k.gamma * b0, "C4": k.gamma, "C5": k.gamma,
+            "T2": -0.5 * k.gamma * a0}
+
+
+def plate_x(k):
+    """PySPH's plate particles (get_plate_particles): x = arange(plate_start, plate_end + dx, dx), y = 0."""
+    return np.arange(k.plate_start, k.plate_end + k.dx, k.dx)
 
 
 def scene(k, out="out/sph_taylor_bar_2d.h5", t_end=None, eos="polynomial"):
@@ -95,10 +106,12 @@ def scene(k, out="out/sph_taylor_bar_2d.h5", t_end=None, eos="polynomial"):
     # Material sound speed sqrt((K + 4G/3)/rho0) = PySPH's constant cs (ss); K enters nothing else
     # (volumetric: eos).
     K = float(k.r0 * k.ss ** 2 - 4.0 / 3.0 * k.G)
+    px = plate_x(k)
+    plo, phi = float(px[0] - 0.5 * dx), float(px[0] + (len(px) - 0.5) * dx)
     if eos == "polynomial":
         c = eos_coefficients(k)
         eos_line = (f"{{model: polynomial, rho0: {k.r0!r}, C1: {c['C1']!r}, C2: {c['C2']!r}, "
-                    f"C3: {c['C3']!r}, C4: {c['C4']!r}, C5: {c['C5']!r}}}")
+                    f"C3: {c['C3']!r}, C4: {c['C4']!r}, C5: {c['C5']!r}, tension: linear, T2: {c['T2']!r}}}")
     else:  # sensitivity variant: the closed-form Mie-Grueneisen with steel's physical S1 = 1.8
         eos_line = (f"{{model: mie_gruneisen, rho0: {k.r0!r}, C0: {k.C!r}, S1: 1.8, "
                     f"gamma0: {k.gamma!r}, a: {k.gamma!r}}}")
@@ -108,12 +121,14 @@ def scene(k, out="out/sph_taylor_bar_2d.h5", t_end=None, eos="polynomial"):
 # y = 4 dx + j dx, dx = {dx * 1e3:g} mm), 200 m/s onto a rigid plate at y = 0.
 # Generated by validation/pysph_taylor_bar/check.py --write-example (which compares the two codes);
 # see validation/pysph_taylor_bar/README.md for every difference from PySPH. In short:
-# * plate: a symmetry plane at y = 0 (frictionless rigid wall by mirror ghosts); PySPH uses a
-#   line of plate particles at y = 0 with Monaghan's repulsive boundary force instead;
+# * plate: PySPH's row of {len(px)} plate particles (x = {px[0] * 1e3:g} mm + i dx, y = 0, mass dx^2 rho0), a
+#   fixed rigid body, with Monaghan's repulsive boundary force (repulsive_wall: PySPH's
+#   MonaghanBoundaryForce with deltap = dx, 0.02 c^2 / y, c = PySPH's constant cs, range 2h);
 # * EOS: polynomial with PySPH's MieGruneisenEOS coefficients (C 3630, S 1800, gamma 1.81 expanded to
 #   third order in mu, identical in compression up to PySPH's -gamma c0 mu^4/2 term; in tension
-#   ejecta keeps C3 mu^3, PySPH has a0 mu - gamma a0 mu^2/2). ejecta's mie_gruneisen is the closed
-#   form, whose denominator vanishes at mu = 1/(S - 1) = 5.6e-4 with S = 1800: not usable here;
+#   `tension: linear` with T2 = -gamma a0 / 2 gives PySPH's a0 mu - gamma a0 mu^2/2 + gamma rho e).
+#   ejecta's mie_gruneisen is the closed form, whose denominator vanishes at mu = 1/(S - 1) = 5.6e-4
+#   with S = 1800: not usable here;
 # * K is chosen so that the material sound speed sqrt((K + 4G/3)/rho0) = {k.ss:g} m/s, PySPH's
 #   constant cs (the viscosity uses max(EOS c, material c); with volumetric: eos K enters nothing else);
 # * artificial stress off: PySPH's example never computes its r_ij (no MonaghanArtificialStress);
@@ -133,6 +148,7 @@ materials:
     H: 0
     volumetric: eos
     eos: {eos_line}
+  plate_mat: {{rho0: {k.r0!r}}}
 sets:
   bar:
     method: sph
@@ -150,8 +166,16 @@ sets:
     shape: {{box: {{min: [{lo[0]!r}, {lo[1]!r}], max: [{hi[0]!r}, {hi[1]!r}]}}}}
     spacing: {dx!r}
     velocity: [0, -200]
-boundaries:
-  - symmetry: {{point: [0, 0], normal: [0, 1]}}
+  plate:
+    method: rigid_body
+    material: plate_mat
+    fix_translation: [1, 1, 1]
+    fix_rotation: [1, 1, 1]
+    shape: {{box: {{min: [{plo!r}, {-0.5 * dx!r}], max: [{phi!r}, {0.5 * dx!r}]}}}}
+    spacing: {dx!r}
+interactions:
+  - {{model: repulsive_wall, sets: [bar, plate], normal: [0, 1, 0], spacing: {dx!r}, coefficient: 0.02,
+     sound_speed: {k.ss!r}}}
 """
 
 
@@ -222,8 +246,9 @@ def run_ejecta(exe, text, name, outdir, threads, reuse=False):
             json.dump([wall, cpu], f)
     d = common.read_frame(out, None, "bar")
     d0 = common.read_frame(out, common.frames(out)[0], "bar")
+    pl = common.read_frame(out, common.frames(out)[0], "plate")
     return {"x0": d0["x"][:, :2], "x": d["x"][:, 0], "y": d["x"][:, 1], "rho": d["rho"], "p": d["p"],
-            "t": d["time"], "steps": d["step"], "wall": wall, "cpu": cpu}
+            "t": d["time"], "steps": d["step"], "wall": wall, "cpu": cpu, "plate0": pl["x"][:, :2]}
 
 
 def same_lattice(a, b):
@@ -284,6 +309,10 @@ def main():
     e = ej["ejecta"]
     lattice_ok = same_lattice(py["x0"], e["x0"])
     print(f"  same initial particles (to 1e-12 m): {lattice_ok}")
+    px = plate_x(k)
+    plate_ok = same_lattice(np.c_[px, np.zeros_like(px)], e["plate0"])
+    print(f"  same plate particles as PySPH's get_plate_particles ({len(px)}, to 1e-12 m): {plate_ok}")
+    lattice_ok = lattice_ok and plate_ok
     dx = k.dx
     res = {"PySPH": measure(py["x"], py["y"], dx)}
     for label, r in ej.items():
