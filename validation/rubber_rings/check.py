@@ -2,7 +2,8 @@
 """Colliding rubber rings (Gray, Monaghan & Swift, CMAME 190 (2001) 6641, section 6): two elastic
 rings (inner/outer radius 3/4 cm) approach at 0.059 c0 each. With the artificial stress they
 bounce back intact; without it the tensile instability fragments them. Runs both cases of
-examples/sph_rubber_rings.yaml and measures, at the end:
+examples/sph_rubber_rings.yaml (one sph set, the union of the two rings, as in the paper) and
+measures, at the end, for each ring (its particles by id: x < 0 in the first frame is the left ring):
   * rebound: mean x velocity of the left ring (negative = moving back, bounced);
   * integrity: the largest cluster of a ring (particles linked when closer than 1.5 dx) as a
     fraction of the ring's particles, and the number of clusters.
@@ -20,6 +21,7 @@ import common  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DX = 1e-3
+SET = "rings"
 
 
 def clusters(x, link):
@@ -73,16 +75,26 @@ def main():
             results[art] = None
             continue
         res = {}
-        for s in ("left", "right"):
-            d = common.read_frame(path, None, s)
-            nc, frac = clusters(d["x"][:, :2], 1.5 * DX)
-            res[s] = (d["x"][:, :2], d["v"][:, 0].mean(), nc, frac, d["time"])
+        first = common.read_frame(path, common.frames(path)[0], SET)
+        last = common.read_frame(path, None, SET)
+        assert first["time"] == 0.0, "the first frame is not the initial state"
+        left_ids = first["id"][first["x"][:, 0] < 0]
+        in_left = np.isin(last["id"], left_ids)
+        print(f"  {name}: {in_left.sum()} + {(~in_left).sum()} particles (left + right)")
+        for s, sel in (("left", in_left), ("right", ~in_left)):
+            x = last["x"][sel, :2]
+            nc, frac = clusters(x, 1.5 * DX)
+            res[s] = (x, last["v"][sel, 0].mean(), nc, frac, last["time"])
         results[art] = res
+        e = common.read_series(path)
+        e0 = e["kinetic"][0] + e["internal"][0]
+        print(f"  {name}: energy balance |error| max {np.abs(e['balance']).max() / e0:.2e}, end "
+              f"{e['balance'][-1] / e0:+.2e} of the initial total; kinetic at the end {e['kinetic'][-1] / e0:.3f}")
         common.energy_figure(path, os.path.join(HERE, f"{name}_energy.png"),
                              title=f"Rubber rings, art_stress {'on' if art else 'off'}: energy budget")
         print(f"  art_stress {art}: t = {res['left'][4]:.4f} s, left ring <vx> = {res['left'][1]:+.3f} m/s, "
               f"clusters left/right = {res['left'][2]}/{res['right'][2]}, largest cluster "
-              f"{res['left'][3]:.4f}/{res['right'][3]:.4f}")
+              f"{res['left'][3]:.4f}/{res['right'][3]:.4f}, right ring <vx> = {res['right'][1]:+.3f} m/s")
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
