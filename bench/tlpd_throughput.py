@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """TL-PD throughput: particle-steps per second per core, 1 -> 2 thread speed-up, bytes per particle.
 
-    /usr/bin/python3 bench/tlpd_throughput.py --build build [--n-side 60] [--steps 20] [--repeats 3] [--compare OTHER_BUILD]
+    /usr/bin/python3 bench/tlpd_throughput.py --build build [--n-side 60] [--steps 20] [--repeats 5] [--compare OTHER_BUILD]
 
 Problem: a 3D block of n_side^3 particles (60^3 = 216,000 >= 200,000), horizon m = 3 (about 123
 bonds per interior particle with the partial-volume shell), sum form with 002 hourglass
@@ -100,7 +100,7 @@ def main():
     ap.add_argument("--out", default="out/bench/tlpd")
     ap.add_argument("--n-side", type=int, default=60)
     ap.add_argument("--steps", type=int, default=20)
-    ap.add_argument("--repeats", type=int, default=3, help="rounds; each time is the best over them")
+    ap.add_argument("--repeats", type=int, default=5, help="rounds; each time is the best over them")
     ap.add_argument("--compare", default=None, help="an other build directory to measure in the same command")
     a = ap.parse_args()
     exe = common.ejecta_binary(a.build)
