@@ -128,3 +128,39 @@ def profile_figure(h5, set_name, field, ref_csv, png, component=None, axis=None,
             parts = dict(p.split(" = ") for p in ln.replace("compare: ", "").split("  "))
             return float(parts["L1_rel"]), float(parts["Linf_rel"])
     raise RuntimeError("tools/compare.py printed no errors")
+
+
+def pairs_within(x, r, chunk=512):
+    """All pairs (i < j) of the 2-D points x (n x 2, or more columns: the first two count) closer
+    than r (brute force in chunks of rows) and their distances."""
+    n = len(x)
+    ii, jj, dd = [], [], []
+    for a in range(0, n, chunk):
+        b = min(n, a + chunk)
+        d = np.hypot(x[a:b, None, 0] - x[None, :, 0], x[a:b, None, 1] - x[None, :, 1])
+        i, j = np.nonzero(d < r)
+        keep = (i + a) < j
+        ii.append(i[keep] + a)
+        jj.append(j[keep])
+        dd.append(d[i[keep], j[keep]])
+    return np.concatenate(ii), np.concatenate(jj), np.concatenate(dd)
+
+
+def cluster_count(n, i, j):
+    """Connected components of n points linked by the pairs (i[k], j[k]) (union-find): their
+    number and the largest one's share of n."""
+    parent = np.arange(n)
+
+    def find(a):
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    for a, b in zip(i, j):
+        ra, rb = find(a), find(b)
+        if ra != rb:
+            parent[ra] = rb
+    roots = np.array([find(a) for a in range(n)])
+    _, counts = np.unique(roots, return_counts=True)
+    return len(counts), counts.max() / n

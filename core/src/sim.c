@@ -1143,16 +1143,11 @@ static ej_err ej_next_dt(ej_sim *sim)
   return EJ_OK;
 }
 
-typedef struct ej_kd_ctx {
-  bool zero; /* zero a and the rates (the step loop; ej_compute_all then does not) */
-  bool due;  /* and compute the chunk's skin watch maxima (ej_due_chunk) */
-} ej_kd_ctx;
-
 /* First half kick, drift, and the predictor of velocity and rate fields for the force
- * evaluation at t_n+1 (velocity Verlet; state fields integrated with the same trapezoid). */
+ * evaluation at t_n+1 (velocity Verlet; state fields integrated with the same trapezoid); then
+ * a and the rates zeroed, and, when *(const bool *)ctx, the chunk's skin watch. */
 static ej_err ej_kick_drift_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
 {
-  (void)ctx, (void)c;
   const ej_real dt = sim->dt, h = 0.5 * sim->dt;
   ej_real *x = s->fields[s->f_x].data, *v = s->fields[s->f_v].data, *a = s->fields[s->f_a].data;
   ej_real *vh = ej_set_field(s, "v_half");
@@ -1192,11 +1187,16 @@ static ej_err ej_kick_drift_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, 
     }
   }
   /* a and the rates are not read again before the passes: zero them here (ej_compute_all) */
-  const ej_kd_ctx *kc = ctx;
-  if (kc && kc->zero) EJ_TRY(ej_zero_chunk(sim, s, NULL, c, r));
+  EJ_TRY(ej_zero_chunk(sim, s, NULL, c, r));
   /* the skin watch of the drifted chunk (ej_due_chunk: own particles only), in the same region */
-  if (kc && kc->due) return ej_due_chunk(sim, s, NULL, c, r);
+  if (*(const bool *)ctx) return ej_due_chunk(sim, s, NULL, c, r);
   return EJ_OK;
+}
+
+/* Whether s's method has a post_step that runs in the kick's region (ABI 1.4 post_step_local). */
+static bool ej_post_local(const ej_set *s)
+{
+  return s->mops->post_step && EJ_HAS_OP(s->mops, ej_method_ops, post_step_local);
 }
 
 static ej_err ej_post_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
@@ -1704,11 +1704,11 @@ ej_err ej_sim_run(ej_sim *sim)
     bool due = false;
     for (int i = 0; i < sim->n_sets; ++i) {
       ej_set *s = sim->sets[i];
-      const ej_kd_ctx kc = {.zero = true, .due = ej_due_watched(s)};
+      const bool watch = ej_due_watched(s);
       s->ghost_dirty |= s->step_mask;
-      if (kc.due) EJ_TRY_GOTO(rc, ej_sim_scratch(sim, s), out);
-      EJ_TRY_GOTO(rc, ej_for_chunks(sim, s, ej_kick_drift_chunk, (void *)&kc), out);
-      if (kc.due && ej_due_reduce(sim, s)) due = true;
+      if (watch) EJ_TRY_GOTO(rc, ej_sim_scratch(sim, s), out);
+      EJ_TRY_GOTO(rc, ej_for_chunks(sim, s, ej_kick_drift_chunk, (void *)&watch), out);
+      if (watch && ej_due_reduce(sim, s)) due = true;
     }
     sim->t += sim->dt;
     sim->step++;
@@ -1725,14 +1725,12 @@ ej_err ej_sim_run(ej_sim *sim)
           !EJ_HAS_OP(sim->inter[k].ops, ej_interaction_ops, post_step_sums_only))
         fuse_diag = false;
     for (int i = 0; i < sim->n_sets; ++i)
-      if (sim->sets[i]->mops->post_step && !EJ_HAS_OP(sim->sets[i]->mops, ej_method_ops, post_step_local))
-        fuse_diag = false;
+      if (sim->sets[i]->mops->post_step && !ej_post_local(sim->sets[i])) fuse_diag = false;
     ej_diag_acc diag;
     ej_diag_init(&diag);
     for (int i = 0; i < sim->n_sets; ++i) {
       ej_set *s = sim->sets[i];
-      const ej_end_ctx ec = {.post = s->mops->post_step && EJ_HAS_OP(s->mops, ej_method_ops, post_step_local),
-                             .diag = fuse_diag, .with_work = true};
+      const ej_end_ctx ec = {.post = ej_post_local(s), .diag = fuse_diag, .with_work = true};
       s->ghost_dirty |= s->step_mask;
       if (ec.post) ej_mark_pass(s, EJ_PASS_POST_STEP);
       if (ec.diag) EJ_TRY_GOTO(rc, ej_sim_scratch(sim, s), out);
@@ -1740,7 +1738,7 @@ ej_err ej_sim_run(ej_sim *sim)
       if (ec.diag) ej_diag_add(sim, s, true, &diag);
     }
     for (int i = 0; i < sim->n_sets; ++i)
-      if (sim->sets[i]->mops->post_step && !EJ_HAS_OP(sim->sets[i]->mops, ej_method_ops, post_step_local)) {
+      if (sim->sets[i]->mops->post_step && !ej_post_local(sim->sets[i])) {
         ej_mark_pass(sim->sets[i], EJ_PASS_POST_STEP);
         EJ_TRY_GOTO(rc, ej_for_chunks(sim, sim->sets[i], ej_post_chunk, NULL), out);
       }

@@ -25,35 +25,10 @@ SET = "rings"
 
 
 def clusters(x, link):
-    """Connected components of the points x (n x 2) linked below distance link (cell grid)."""
-    n = len(x)
-    parent = np.arange(n)
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    cell = np.floor(x / link).astype(np.int64)
-    buckets = {}
-    for i, c in enumerate(map(tuple, cell)):
-        buckets.setdefault(c, []).append(i)
-    for (cx, cy), members in buckets.items():
-        cand = []
-        for ox in (-1, 0, 1):
-            for oy in (-1, 0, 1):
-                cand += buckets.get((cx + ox, cy + oy), [])
-        cand = np.array(cand)
-        for i in members:
-            d = np.hypot(*(x[cand] - x[i]).T)
-            for j in cand[d < link]:
-                ri, rj = find(i), find(j)
-                if ri != rj:
-                    parent[ri] = rj
-    roots = np.array([find(i) for i in range(n)])
-    _, counts = np.unique(roots, return_counts=True)
-    return len(counts), counts.max() / n
+    """Connected components of the points x (n x 2) linked below distance link: their number and
+    the largest one's share."""
+    i, j, _ = common.pairs_within(x, link)
+    return common.cluster_count(len(x), i, j)
 
 
 def main():

@@ -160,46 +160,13 @@ def closed_form(e_rate, e_max=0.35, n=20000):
     return es, S, T
 
 
-def pairs_within(x, r, chunk=512):
-    """All pairs (i < j) closer than r (brute force in chunks) and their distances."""
-    n = len(x)
-    ii, jj, dd = [], [], []
-    for a in range(0, n, chunk):
-        b = min(n, a + chunk)
-        d = np.hypot(x[a:b, None, 0] - x[None, :, 0], x[a:b, None, 1] - x[None, :, 1])
-        i, j = np.nonzero(d < r)
-        keep = (i + a) < j
-        ii.append(i[keep] + a)
-        jj.append(j[keep])
-        dd.append(d[i[keep], j[keep]])
-    return np.concatenate(ii), np.concatenate(jj), np.concatenate(dd)
-
-
 def nearest(x, r):
     """Nearest-neighbour distance of every point (inf when none within r)."""
-    i, j, d = pairs_within(x, r)
+    i, j, d = common.pairs_within(x, r)
     dn = np.full(len(x), np.inf)
     np.minimum.at(dn, i, d)
     np.minimum.at(dn, j, d)
     return dn
-
-
-def n_clusters(n, i, j):
-    parent = np.arange(n)
-
-    def find(a):
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
-    for a, b in zip(i, j):
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[ra] = rb
-    roots = np.array([find(a) for a in range(n)])
-    _, counts = np.unique(roots, return_counts=True)
-    return len(counts), counts.max() / n
 
 
 class Reference:
@@ -211,7 +178,7 @@ class Reference:
         self.ids = f0["id"][order]
         X = f0["x"][order, :2]
         self.X, self.dx = X, dx
-        self.i, self.j, _ = pairs_within(X, 3 * dx)
+        self.i, self.j, _ = common.pairs_within(X, 3 * dx)
         n = len(X)
         self.boundary = (np.abs(X[:, 0]) > 0.5 * W0 - dx) | (np.abs(X[:, 1]) > 0.5 * L0 - dx)
         grip, l_free, _ = lengths(dx)
@@ -252,7 +219,7 @@ def frame_metrics(ref, fr):
     lens = np.linalg.norm(np.einsum("nab,kb->nka", F, dirs), axis=2)
     expect = dx * lens.min(axis=1)
     smax = np.linalg.svd(F, compute_uv=False)[:, 0]
-    i, j, d = pairs_within(x, 3 * dx)
+    i, j, d = common.pairs_within(x, 3 * dx)
     dn = np.full(len(x), np.inf)
     np.minimum.at(dn, i, d)
     np.minimum.at(dn, j, d)
@@ -260,7 +227,7 @@ def frame_metrics(ref, fr):
     vol = fr["m"] / fr["rho"]
     ratio_v = dn / np.sqrt(vol)
     link = 1.5 * dx * np.minimum(2.0, np.maximum(smax[i], smax[j]))  # capped at the 3 dx of the pair search
-    nc, frac = n_clusters(len(x), i[d < link], j[d < link])
+    nc, frac = common.cluster_count(len(x), i[d < link], j[d < link])
     cnt = np.bincount(i, minlength=len(x)) + np.bincount(j, minlength=len(x))
     # distance to the nearest particle of the original boundary
     bx = x[ref.boundary]

@@ -74,6 +74,7 @@ static inline ej_real rk_face_tol(ej_real tol) { return tol > RK_FACE_RCOND ? to
 #define RK_SPREAD_MIN 1e-3
 #define RK_QMAX 0.6124 /* farthest face point from the node, in box edges: sqrt(6)/4 (3D) */
 #define RK_CHUNK 64    /* neighbours per chunk of the face-point sweeps (stack scratch) */
+#define RK_NB_FUSE 192 /* neighbours (with the node itself) of the fused sweep (stack scratch) */
 #define RK_CHUNK2 16   /* nodes L per chunk of the force sweep (stack scratch ~32 kB) */
 
 typedef struct rk_config {
@@ -753,6 +754,24 @@ static inline RK_ALWAYS_INLINE int rk_face_rows(const int n, const rk_state *s, 
   return nflag;
 }
 
+/* The neighbours t < nn (offsets cx, cy, cz from the node, support radii aa) whose support
+ * reaches the bounding ball of a face-point group (centre offset gx, gy, gz, radius gr): their
+ * positions t, in neighbour order, into lst; returns how many. The ball test is vectorised over
+ * the neighbours first, the list is compacted after. */
+static inline RK_ALWAYS_INLINE int rk_group_list(int nn, const ej_real *restrict cx, const ej_real *restrict cy,
+                                                 const ej_real *restrict cz, const ej_real *restrict aa, ej_real gx,
+                                                 ej_real gy, ej_real gz, ej_real gr, int *restrict lst)
+{
+  int in[RK_NB_FUSE > RK_CHUNK ? RK_NB_FUSE : RK_CHUNK];
+  for (int t = 0; t < nn; ++t) {
+    const ej_real e0 = cx[t] + gx, e1 = cy[t] + gy, e2 = cz[t] + gz, rr = aa[t] + gr;
+    in[t] = e0 * e0 + e1 * e1 + e2 * e2 < rr * rr;
+  }
+  int c = 0;
+  for (int t = 0; t < nn; ++t) lst[c] = t, c += in[t];
+  return c;
+}
+
 /* MSNNI pass 0: the moment matrix M(x_f) (003 Eq 5) at every face point of node L's box,
  * from L and its neighbours, and the first row (b0, b) of its inverse in the basis scaled by
  * l = a_L, so that Psi_J(x_f) = (b0 + b . (x_f - x_J) / l) phi_J(x_f - x_J) (003 Eq 4). A face
@@ -801,17 +820,8 @@ static inline RK_ALWAYS_INLINE void rk_box_moment_rows(const int dim, const rk_s
         aa[nn] = ra[j];
       }
       for (int t = 0; t < nn; ++t) ia[t] = 1.0 / aa[t];
-      for (int g = 0; g < ng; ++g) {
-        const ej_real gx = gcx[g][0], gy = gcx[g][1], gz = gcx[g][2], gr = grx[g];
-        int in[RK_CHUNK];
-        for (int t = 0; t < nn; ++t) {
-          const ej_real e0 = cx[t] + gx, e1 = cy[t] + gy, e2 = cz[t] + gz, rr = aa[t] + gr;
-          in[t] = e0 * e0 + e1 * e1 + e2 * e2 < rr * rr;
-        }
-        int c = 0;
-        for (int t = 0; t < nn; ++t) lst[g][c] = t, c += in[t];
-        cnt[g] = c;
-      }
+      for (int g = 0; g < ng; ++g)
+        cnt[g] = rk_group_list(nn, cx, cy, cz, aa, gcx[g][0], gcx[g][1], gcx[g][2], grx[g], lst[g]);
       for (int g = 0; g < ng; ++g) {
         const int p0 = 4 * g;
         ej_real o0[4], o1[4], o2[4], a[RK_NM][4];
@@ -866,7 +876,6 @@ static void rk_taylor_guard(const rk_state *s, const rk_args *A, const int32_t *
  * separate sweeps. Returns 1 with up, um filled, or 0 when the caller interpolates with its own
  * sweep: more than RK_NB_FUSE neighbours or RK_IT_FUSE pairs (then the moments go through
  * rk_box_moment_rows). */
-#define RK_NB_FUSE 192  /* neighbours (with the node itself) of the fused sweep (stack scratch) */
 #define RK_IT_FUSE 1024 /* (neighbour, group) pairs whose kernel values it keeps (32 kB) */
 static inline RK_ALWAYS_INLINE int rk_box_fused_node(const int dim, const rk_state *s, const rk_args *A,
                                                     const ej_real *restrict hb, const int32_t *restrict id, ej_idx L,
@@ -900,16 +909,9 @@ static inline RK_ALWAYS_INLINE int rk_box_fused_node(const int dim, const rk_sta
   for (int t = 0; t < nn; ++t) ia[t] = 1.0 / aa[t];
   int nit = 0;
   for (int g = 0; g < ng; ++g) {
-    const ej_real gx = hq * s->gc[g][0], gy = hq * s->gc[g][1], gz = hq * s->gc[g][2], gr = hq * s->gr[g];
-    int in[RK_NB_FUSE];
-    for (int t = 0; t < nn; ++t) {
-      const ej_real e0 = cx[t] + gx, e1 = cy[t] + gy, e2 = cz[t] + gz, rr = aa[t] + gr;
-      in[t] = e0 * e0 + e1 * e1 + e2 * e2 < rr * rr;
-    }
-    int c = 0;
-    for (int t = 0; t < nn; ++t) lst[g][c] = t, c += in[t];
-    cnt[g] = c;
-    nit += c;
+    cnt[g] = rk_group_list(nn, cx, cy, cz, aa, hq * s->gc[g][0], hq * s->gc[g][1], hq * s->gc[g][2], hq * s->gr[g],
+                           lst[g]);
+    nit += cnt[g];
   }
   if (nit > RK_IT_FUSE) {
     rk_box_moment_rows(dim, s, X, ra, hb, id, A->off, A->idx, A->tol, one);
