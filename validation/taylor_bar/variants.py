@@ -48,6 +48,13 @@ VARIANTS = {
     "rate_total": ("JC rate term on the total equivalent deviatoric strain rate (rate: total) instead of deps_p/dt",
                    [("    taylor_quinney: 0.9\n", "    taylor_quinney: 0.9\n    rate: total\n")]),
     "rate_off": ("C = 0: JC rate term off - sensitivity only", [("    C: 0.060\n", "    C: 0\n")]),
+    "correction": ("kernel gradient correction (correction: true, Bonet & Lok 1999) in the bar",
+                   [("    art_stress: false\n", "    art_stress: false\n    correction: true\n")]),
+    "fixed_h": ("constant smoothing length (variable_h: false) in the bar",
+                [("    art_stress: false\n", "    art_stress: false\n    variable_h: false\n")]),
+    "xsph": ("XSPH 0.5 in the bar", [("    art_stress: false\n", "    art_stress: false\n    xsph: 0.5\n")]),
+    "no_renorm": ("continuity without the divergence renormalisation (renormalize: false)",
+                  [("    art_stress: false\n", "    art_stress: false\n    renormalize: false\n")]),
 }
 
 
