@@ -331,6 +331,7 @@ struct ej_set {
   bool in_interaction;     /* a two-set interaction lists it: x_build kept current */
   uint8_t *bond_flags;     /* [n_bonds] per CSR entry of a reference family */
   ej_off n_bonds;
+  int64_t list_builds;     /* builds of its own list (ej_set_list_builds) */
   /* method */
   const ej_method_ops *mops;
   const void *mconfig;

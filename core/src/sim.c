@@ -798,6 +798,7 @@ static ej_err ej_lists_from_build(ej_sim *sim)
     ej_free(xs);
     ej_free(rs);
     EJ_TRY(rc);
+    s->list_builds++;
   }
   for (int k = 0; k < sim->n_inter; ++k) {
     ej_inter *in = &sim->inter[k];

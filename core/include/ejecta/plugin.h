@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 4 /* members appended to an info or ops struct        */
+#define EJ_ABI_MINOR 5 /* members appended to an info or ops struct        */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -252,6 +252,13 @@ typedef struct ej_nbr {
  * the bits as it likes (bit 0 = broken, by convention). NULL for other sets or before the first
  * build (available from the first compute on). */
 uint8_t *ej_set_bond_flags(const ej_set *s);
+
+/* --- ABI 1.5. How many times the set's own neighbour list has been built in this process: the
+ * rows (and the particle order, which a rebuild may change) stay the same between two passes
+ * that see the same count, so a method may cache what it derives from the list (rkpm caches,
+ * per entry, the position of the row's particle in its neighbour's row). 0 before the first
+ * build; a restart starts again from 0. */
+int64_t ej_set_list_builds(const ej_set *s);
 
 /* ------------------------------------------------------------------ EOS */
 
