@@ -507,6 +507,46 @@ END_TEST
 
 /* ------------------------------------------------------------------ whole runs */
 
+/* A whole run of a scene file with the rkpm and elastic plugins, kept for inspection until
+ * rk_run_done, which also removes the scene, its output and the temporary directory. */
+typedef struct rk_run {
+  ej_registry *reg;
+  ej_scene *sc;
+  ej_sim *sim;
+  double e0; /* initial kinetic + internal energy */
+} rk_run;
+
+static void rk_run_scene(rk_run *r, const char *scene, const char *out, int threads)
+{
+  ck_assert_int_eq(ej_registry_create(&r->reg), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_rkpm_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_elastic_info()), EJ_OK);
+  ej_err rc = ej_scene_load(scene, r->reg, &r->sc);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = threads};
+  rc = ej_sim_create(r->sc, r->reg, &opts, &r->sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  r->e0 = r->sim->energy.kinetic + r->sim->energy.internal;
+  rc = ej_sim_run(r->sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+}
+
+static void rk_run_done(rk_run *r, const char *dir, const char *scene, const char *out, const char *xdmf_name)
+{
+  ej_sim_destroy(r->sim);
+  ej_scene_destroy(r->sc);
+  ej_registry_destroy(r->reg);
+  unlink(scene);
+  unlink(out);
+  char side[160];
+  snprintf(side, sizeof side, "%s/%s", dir, xdmf_name);
+  unlink(side);
+  rmdir(dir);
+}
+
 /* 1D periodic bar (uniaxial strain), E = 1, nu = 0, rho = 1: c = 1. Standing wave
  * v = v0 sin(2 pi x) at t = 0; at t = T/4 = 0.25 the velocity mode has (nearly) vanished and
  * the stress mode peaks: the phase atan2(S, V) of the two projections gives omega t. */
@@ -532,24 +572,9 @@ static double wave_speed(const char *formulation, double *balance_rel)
             v0 * sin(2 * M_PI * (i + 0.5) * dx));
   fprintf(fp, "boundaries:\n  - periodic: {axis: x, min: 0, max: 1}\n");
   fclose(fp);
-  ej_registry *reg;
-  ej_scene *sc;
-  ej_sim *sim;
-  ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_rkpm_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_elastic_info()), EJ_OK);
-  ej_err rc = ej_scene_load(scene, reg, &sc);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = 1};
-  rc = ej_sim_create(sc, reg, &opts, &sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  const double e0 = sim->energy.kinetic + sim->energy.internal;
-  rc = ej_sim_run(sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  const ej_set *s = sim->sets[0];
+  rk_run r;
+  rk_run_scene(&r, scene, out, 1);
+  const ej_set *s = r.sim->sets[0];
   const ej_real *x = ej_set_field(s, "x"), *v = ej_set_field(s, "v"), *sg = ej_set_field(s, "stress");
   double V = 0, S = 0;
   for (ej_idx i = 0; i < ej_set_count(s); ++i) {
@@ -557,17 +582,9 @@ static double wave_speed(const char *formulation, double *balance_rel)
     V += 2.0 / n * v[3 * i] * sin(2 * M_PI * x[3 * i]) / v0;
     S += 2.0 / n * sg[6 * i] * cos(2 * M_PI * x[3 * i]) / v0; /* rho c = 1 */
   }
-  const double theta = atan2(S, V), t = sim->t;
-  *balance_rel = fabs(sim->energy.balance) / e0;
-  ej_sim_destroy(sim);
-  ej_scene_destroy(sc);
-  ej_registry_destroy(reg);
-  unlink(scene);
-  unlink(out);
-  char side[160];
-  snprintf(side, sizeof side, "%s/wave.xdmf", dir);
-  unlink(side);
-  rmdir(dir);
+  const double theta = atan2(S, V), t = r.sim->t;
+  *balance_rel = fabs(r.sim->energy.balance) / r.e0;
+  rk_run_done(&r, dir, scene, out, "wave.xdmf");
   return theta / (2 * M_PI * t); /* omega / k, with k = 2 pi */
 }
 
@@ -579,7 +596,7 @@ START_TEST(test_msnni_jitter_stability)
 {
   char dir[] = "/tmp/ej_rkpm_XXXXXX";
   ck_assert_ptr_nonnull(mkdtemp(dir));
-  char scene[128], out[128], side[160];
+  char scene[128], out[128];
   snprintf(scene, sizeof scene, "%s/jit.yaml", dir);
   snprintf(out, sizeof out, "%s/jit.h5", dir);
   FILE *fp = fopen(scene, "w");
@@ -594,39 +611,17 @@ START_TEST(test_msnni_jitter_stability)
   smooth_block_initial(init, sizeof init, 0.01);
   fputs(init, fp);
   fclose(fp);
-  ej_registry *reg;
-  ej_scene *sc;
-  ej_sim *sim;
-  ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_rkpm_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_elastic_info()), EJ_OK);
-  ej_err rc = ej_scene_load(scene, reg, &sc);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = 1};
-  rc = ej_sim_create(sc, reg, &opts, &sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  const double e0 = sim->energy.kinetic + sim->energy.internal;
-  rc = ej_sim_run(sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  const double bal = fabs(sim->energy.balance) / e0, ke = sim->energy.kinetic / e0;
-  fprintf(stderr, "rkpm msnni jittered block: %lld steps, |balance| %.2e E0, KE %.3f E0\n", (long long)sim->step, bal,
-          ke);
+  rk_run r;
+  rk_run_scene(&r, scene, out, 1);
+  const double bal = fabs(r.sim->energy.balance) / r.e0, ke = r.sim->energy.kinetic / r.e0;
+  fprintf(stderr, "rkpm msnni jittered block: %lld steps, |balance| %.2e E0, KE %.3f E0\n", (long long)r.sim->step,
+          bal, ke);
   /* 3.0e-2 E0 measured (time-integration error at cfl 0.5 of the piecewise-constant initial
    * velocity); the failure this guards against is a blow-up: 2.4e3 E0, KE 332 E0, with the face
    * pivot limit 1e-3. */
   ck_assert_msg(bal < 5e-2, "energy balance %g of E0", bal);
   ck_assert_msg(ke <= 1.0 + 1e-2, "kinetic energy grew to %g E0", ke);
-  ej_sim_destroy(sim);
-  ej_scene_destroy(sc);
-  ej_registry_destroy(reg);
-  unlink(scene);
-  unlink(out);
-  snprintf(side, sizeof side, "%s/jit.xdmf", dir);
-  unlink(side);
-  rmdir(dir);
+  rk_run_done(&r, dir, scene, out, "jit.xdmf");
 }
 END_TEST
 
@@ -655,7 +650,7 @@ static int scatter_run(bool scatter, int threads, double *v_out, double *x_out, 
 {
   char dir[] = "/tmp/ej_rkpm_XXXXXX";
   ck_assert_ptr_nonnull(mkdtemp(dir));
-  char scene[128], out[128], side[160];
+  char scene[128], out[128];
   snprintf(scene, sizeof scene, "%s/sc.yaml", dir);
   snprintf(out, sizeof out, "%s/sc.h5", dir);
   FILE *fp = fopen(scene, "w");
@@ -673,37 +668,16 @@ static int scatter_run(bool scatter, int threads, double *v_out, double *x_out, 
   fputs(init, fp);
   fputs("boundaries:\n  - {symmetry: {point: [0, 0, 0], normal: [1, 0, 0]}, set: block}\n", fp);
   fclose(fp);
-  ej_registry *reg;
-  ej_scene *sc;
-  ej_sim *sim;
-  ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_rkpm_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_elastic_info()), EJ_OK);
-  ej_err rc = ej_scene_load(scene, reg, &sc);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = threads};
-  rc = ej_sim_create(sc, reg, &opts, &sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  rc = ej_sim_run(sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  ej_set *set = sim->sets[0];
+  rk_run r;
+  rk_run_scene(&r, scene, out, threads);
+  ej_set *set = r.sim->sets[0];
   const int n = (int)ej_set_count(set);
   const ej_real *v = ej_set_field(set, "v"), *x = ej_set_field(set, "x");
   const int32_t *id = ej_set_field_int(set, "id");
   for (int i = 0; i < n; ++i) /* by particle id: the order is the last rebuild's */
     for (int c = 0; c < 3; ++c) v_out[3 * id[i] + c] = v[3 * i + c], x_out[3 * id[i] + c] = x[3 * i + c];
   *rebuilds = ej_set_list_builds(set);
-  ej_sim_destroy(sim);
-  ej_scene_destroy(sc);
-  ej_registry_destroy(reg);
-  unlink(scene);
-  unlink(out);
-  snprintf(side, sizeof side, "%s/sc.xdmf", dir);
-  unlink(side);
-  rmdir(dir);
+  rk_run_done(&r, dir, scene, out, "sc.xdmf");
   return n;
 }
 
