@@ -25,6 +25,9 @@ With msnni_stress: material (the sub-box stresses through the material, 2026-11-
 scene. Profile (perf, 20^3, 16 steps): force sweep 36 %, material pass (interpolation sweep)
 28 %, moment sweep 28 %, sub-box material calls 1.2 %. Target FAIL (about 6x short). Reported
 PASS/FAIL, never the exit status (a benchmark, not a test).
+2026-11-28 evening, the force scatter (plugins/methods/rkpm/README.md "Force scatter"), default
+58^3, --repeats 1, the previous build and this one alternated twice: 1 thread 8.31e4 / 7.65e4 ->
+9.60e4 / 9.28e4 per CPU-second, 2 threads 7.81e4 / 7.16e4 -> 9.54e4 / 9.92e4; peak RSS 701 -> 1151 MB.
 """
 import argparse
 import os
