@@ -516,6 +516,18 @@ typedef struct rk_run {
   double e0; /* initial kinetic + internal energy */
 } rk_run;
 
+/* A fresh temporary directory dir (a "/tmp/ej_rkpm_XXXXXX" buffer) with the paths of the scene
+ * STEM.yaml and its output STEM.h5; returns the scene file opened for writing. */
+static FILE *rk_tmp_scene(char *dir, const char *stem, char scene[128], char out[128])
+{
+  ck_assert_ptr_nonnull(mkdtemp(dir));
+  snprintf(scene, 128, "%s/%s.yaml", dir, stem);
+  snprintf(out, 128, "%s/%s.h5", dir, stem);
+  FILE *fp = fopen(scene, "w");
+  ck_assert_ptr_nonnull(fp);
+  return fp;
+}
+
 static void rk_run_scene(rk_run *r, const char *scene, const char *out, int threads)
 {
   ck_assert_int_eq(ej_registry_create(&r->reg), EJ_OK);
@@ -552,15 +564,10 @@ static void rk_run_done(rk_run *r, const char *dir, const char *scene, const cha
  * the stress mode peaks: the phase atan2(S, V) of the two projections gives omega t. */
 static double wave_speed(const char *formulation, double *balance_rel)
 {
-  char dir[] = "/tmp/ej_rkpm_XXXXXX";
-  ck_assert_ptr_nonnull(mkdtemp(dir));
-  char scene[128], out[128];
-  snprintf(scene, sizeof scene, "%s/wave.yaml", dir);
-  snprintf(out, sizeof out, "%s/wave.h5", dir);
+  char dir[] = "/tmp/ej_rkpm_XXXXXX", scene[128], out[128];
   const int n = 64;
   const double dx = 1.0 / n, v0 = 1e-3;
-  FILE *fp = fopen(scene, "w");
-  ck_assert_ptr_nonnull(fp);
+  FILE *fp = rk_tmp_scene(dir, "wave", scene, out);
   fprintf(fp,
           "ejecta: 1\ndimension: 1\ntime: {end: 0.25, cfl: 0.5}\noutput: {file: wave.h5, fields: [v, stress]}\n"
           "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0}\n"
@@ -594,13 +601,8 @@ static double wave_speed(const char *formulation, double *balance_rel)
  * 1e-3 instead of 3e-2 this run blows up: balance 2.4e3 E0). */
 START_TEST(test_msnni_jitter_stability)
 {
-  char dir[] = "/tmp/ej_rkpm_XXXXXX";
-  ck_assert_ptr_nonnull(mkdtemp(dir));
-  char scene[128], out[128];
-  snprintf(scene, sizeof scene, "%s/jit.yaml", dir);
-  snprintf(out, sizeof out, "%s/jit.h5", dir);
-  FILE *fp = fopen(scene, "w");
-  ck_assert_ptr_nonnull(fp);
+  char dir[] = "/tmp/ej_rkpm_XXXXXX", scene[128], out[128];
+  FILE *fp = rk_tmp_scene(dir, "jit", scene, out);
   fprintf(fp, "ejecta: 1\ndimension: 3\ntime: {end: 100, cfl: 0.5, max_steps: 80}\n"
               "output: {file: jit.h5, every: 100, fields: [v]}\n"
               "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
@@ -648,13 +650,8 @@ END_TEST
  * Copies v and x of the final state into v_out, x_out (n values each, 3 per particle). */
 static int scatter_run(bool scatter, int threads, double *v_out, double *x_out, int64_t *rebuilds)
 {
-  char dir[] = "/tmp/ej_rkpm_XXXXXX";
-  ck_assert_ptr_nonnull(mkdtemp(dir));
-  char scene[128], out[128];
-  snprintf(scene, sizeof scene, "%s/sc.yaml", dir);
-  snprintf(out, sizeof out, "%s/sc.h5", dir);
-  FILE *fp = fopen(scene, "w");
-  ck_assert_ptr_nonnull(fp);
+  char dir[] = "/tmp/ej_rkpm_XXXXXX", scene[128], out[128];
+  FILE *fp = rk_tmp_scene(dir, "sc", scene, out);
   fprintf(fp,
           "ejecta: 1\ndimension: 3\ntime: {end: 100, cfl: 0.4, max_steps: 120}\n"
           "output: {file: sc.h5, every: 100, fields: [v]}\n"
