@@ -507,56 +507,28 @@ END_TEST
 
 /* ------------------------------------------------------------------ whole runs */
 
-/* A whole run of a scene file with the rkpm and elastic plugins, kept for inspection until
- * rk_run_done, which also removes the scene, its output and the temporary directory. */
-typedef struct rk_run {
-  ej_registry *reg;
-  ej_scene *sc;
-  ej_sim *sim;
-  double e0; /* initial kinetic + internal energy */
-} rk_run;
-
-/* A fresh temporary directory dir (a "/tmp/ej_rkpm_XXXXXX" buffer) with the paths of the scene
- * STEM.yaml and its output STEM.h5; returns the scene file opened for writing. */
-static FILE *rk_tmp_scene(char *dir, const char *stem, char scene[128], char out[128])
+/* A whole run of an rkpm + elastic scene given as text (validation_common.h's vscene, on
+ * `threads` threads); b is freed. Returns the initial kinetic + internal energy; the run is kept
+ * for inspection until vscene_free. */
+static ej_err rk_vopen(vscene *c, int threads, const char *fmt, ...)
 {
-  ck_assert_ptr_nonnull(mkdtemp(dir));
-  snprintf(scene, 128, "%s/%s.yaml", dir, stem);
-  snprintf(out, 128, "%s/%s.h5", dir, stem);
-  FILE *fp = fopen(scene, "w");
-  ck_assert_ptr_nonnull(fp);
-  return fp;
+  const ej_plugin_info *pl[] = {ej_plugin_rkpm_info(), ej_plugin_elastic_info()};
+  va_list ap;
+  va_start(ap, fmt);
+  ej_err rc = vscene_open_threads(c, "rkpm", pl, 2, threads, fmt, ap);
+  va_end(ap);
+  return rc;
 }
 
-static void rk_run_scene(rk_run *r, const char *scene, const char *out, int threads)
+static double rk_run_text(vscene *c, ej_buf *b, int threads)
 {
-  ck_assert_int_eq(ej_registry_create(&r->reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_rkpm_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_elastic_info()), EJ_OK);
-  ej_err rc = ej_scene_load(scene, r->reg, &r->sc);
+  ej_err rc = rk_vopen(c, threads, "%s", b->data);
+  ej_buf_free(b);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
-  ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = threads};
-  rc = ej_sim_create(r->sc, r->reg, &opts, &r->sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  r->e0 = r->sim->energy.kinetic + r->sim->energy.internal;
-  rc = ej_sim_run(r->sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-}
-
-static void rk_run_done(rk_run *r, const char *dir, const char *scene, const char *out, const char *xdmf_name)
-{
-  ej_sim_destroy(r->sim);
-  ej_scene_destroy(r->sc);
-  ej_registry_destroy(r->reg);
-  unlink(scene);
-  unlink(out);
-  char side[160];
-  snprintf(side, sizeof side, "%s/%s", dir, xdmf_name);
-  unlink(side);
-  rmdir(dir);
+  const double e0 = c->r.sim->energy.kinetic + c->r.sim->energy.internal;
+  vrun_run(&c->r);
+  return e0;
 }
 
 /* 1D periodic bar (uniaxial strain), E = 1, nu = 0, rho = 1: c = 1. Standing wave
@@ -564,24 +536,22 @@ static void rk_run_done(rk_run *r, const char *dir, const char *scene, const cha
  * the stress mode peaks: the phase atan2(S, V) of the two projections gives omega t. */
 static double wave_speed(const char *formulation, double *balance_rel)
 {
-  char dir[] = "/tmp/ej_rkpm_XXXXXX", scene[128], out[128];
   const int n = 64;
   const double dx = 1.0 / n, v0 = 1e-3;
-  FILE *fp = rk_tmp_scene(dir, "wave", scene, out);
-  fprintf(fp,
-          "ejecta: 1\ndimension: 1\ntime: {end: 0.25, cfl: 0.5}\noutput: {file: wave.h5, fields: [v, stress]}\n"
-          "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0}\n"
-          "sets:\n  bar:\n    method: rkpm\n    formulation: %s\n    material: m\n"
-          "    shape: {box: {min: [0], max: [1]}}\n    spacing: %.17g\n    initial:\n",
-          formulation, dx);
+  ej_buf b = {0};
+  ej_buf_printf(&b,
+                "ejecta: 1\ndimension: 1\ntime: {end: 0.25, cfl: 0.5}\noutput: {file: wave.h5, fields: [v, stress]}\n"
+                "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0}\n"
+                "sets:\n  bar:\n    method: rkpm\n    formulation: %s\n    material: m\n"
+                "    shape: {box: {min: [0], max: [1]}}\n    spacing: %.17g\n    initial:\n",
+                formulation, dx);
   for (int i = 0; i < n; ++i)
-    fprintf(fp, "      - {region: {box: {min: [%.17g], max: [%.17g]}}, velocity: [%.17g]}\n", i * dx, (i + 1) * dx,
-            v0 * sin(2 * M_PI * (i + 0.5) * dx));
-  fprintf(fp, "boundaries:\n  - periodic: {axis: x, min: 0, max: 1}\n");
-  fclose(fp);
-  rk_run r;
-  rk_run_scene(&r, scene, out, 1);
-  const ej_set *s = r.sim->sets[0];
+    ej_buf_printf(&b, "      - {region: {box: {min: [%.17g], max: [%.17g]}}, velocity: [%.17g]}\n", i * dx,
+                  (i + 1) * dx, v0 * sin(2 * M_PI * (i + 0.5) * dx));
+  ej_buf_printf(&b, "boundaries:\n  - periodic: {axis: x, min: 0, max: 1}\n");
+  vscene c;
+  const double e0 = rk_run_text(&c, &b, 1);
+  const ej_set *s = c.r.sim->sets[0];
   const ej_real *x = ej_set_field(s, "x"), *v = ej_set_field(s, "v"), *sg = ej_set_field(s, "stress");
   double V = 0, S = 0;
   for (ej_idx i = 0; i < ej_set_count(s); ++i) {
@@ -589,9 +559,9 @@ static double wave_speed(const char *formulation, double *balance_rel)
     V += 2.0 / n * v[3 * i] * sin(2 * M_PI * x[3 * i]) / v0;
     S += 2.0 / n * sg[6 * i] * cos(2 * M_PI * x[3 * i]) / v0; /* rho c = 1 */
   }
-  const double theta = atan2(S, V), t = r.sim->t;
-  *balance_rel = fabs(r.sim->energy.balance) / r.e0;
-  rk_run_done(&r, dir, scene, out, "wave.xdmf");
+  const double theta = atan2(S, V), t = c.r.sim->t;
+  *balance_rel = fabs(c.r.sim->energy.balance) / e0;
+  vscene_free(&c);
   return theta / (2 * M_PI * t); /* omega / k, with k = 2 pi */
 }
 
@@ -601,29 +571,27 @@ static double wave_speed(const char *formulation, double *balance_rel)
  * 1e-3 instead of 3e-2 this run blows up: balance 2.4e3 E0). */
 START_TEST(test_msnni_jitter_stability)
 {
-  char dir[] = "/tmp/ej_rkpm_XXXXXX", scene[128], out[128];
-  FILE *fp = rk_tmp_scene(dir, "jit", scene, out);
-  fprintf(fp, "ejecta: 1\ndimension: 3\ntime: {end: 100, cfl: 0.5, max_steps: 80}\n"
-              "output: {file: jit.h5, every: 100, fields: [v]}\n"
-              "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
-              "sets:\n  block:\n    method: rkpm\n    integration: msnni\n    material: m\n"
-              "    shape: {box: {min: [0, 0, 0], max: [0.5, 0.5, 0.5]}}\n    spacing: 0.0625\n    jitter: 0.3\n"
-              "    initial:\n");
+  ej_buf b = {0};
+  ej_buf_printf(&b, "ejecta: 1\ndimension: 3\ntime: {end: 100, cfl: 0.5, max_steps: 80}\n"
+                "output: {file: jit.h5, every: 100, fields: [v]}\n"
+                "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
+                "sets:\n  block:\n    method: rkpm\n    integration: msnni\n    material: m\n"
+                "    shape: {box: {min: [0, 0, 0], max: [0.5, 0.5, 0.5]}}\n    spacing: 0.0625\n    jitter: 0.3\n"
+                "    initial:\n");
   char init[4096]; /* a smooth field sampled on 4 x 4 columns of 2 x 2 points */
   smooth_block_initial(init, sizeof init, 0.01);
-  fputs(init, fp);
-  fclose(fp);
-  rk_run r;
-  rk_run_scene(&r, scene, out, 1);
-  const double bal = fabs(r.sim->energy.balance) / r.e0, ke = r.sim->energy.kinetic / r.e0;
-  fprintf(stderr, "rkpm msnni jittered block: %lld steps, |balance| %.2e E0, KE %.3f E0\n", (long long)r.sim->step,
+  ej_buf_printf(&b, "%s", init);
+  vscene c;
+  const double e0 = rk_run_text(&c, &b, 1);
+  const double bal = fabs(c.r.sim->energy.balance) / e0, ke = c.r.sim->energy.kinetic / e0;
+  fprintf(stderr, "rkpm msnni jittered block: %lld steps, |balance| %.2e E0, KE %.3f E0\n", (long long)c.r.sim->step,
           bal, ke);
   /* 3.0e-2 E0 measured (time-integration error at cfl 0.5 of the piecewise-constant initial
    * velocity); the failure this guards against is a blow-up: 2.4e3 E0, KE 332 E0, with the face
    * pivot limit 1e-3. */
   ck_assert_msg(bal < 5e-2, "energy balance %g of E0", bal);
   ck_assert_msg(ke <= 1.0 + 1e-2, "kinetic energy grew to %g E0", ke);
-  rk_run_done(&r, dir, scene, out, "jit.xdmf");
+  vscene_free(&c);
 }
 END_TEST
 
@@ -650,31 +618,29 @@ END_TEST
  * Copies v and x of the final state into v_out, x_out (n values each, 3 per particle). */
 static int scatter_run(bool scatter, int threads, double *v_out, double *x_out, int64_t *rebuilds)
 {
-  char dir[] = "/tmp/ej_rkpm_XXXXXX", scene[128], out[128];
-  FILE *fp = rk_tmp_scene(dir, "sc", scene, out);
-  fprintf(fp,
-          "ejecta: 1\ndimension: 3\ntime: {end: 100, cfl: 0.4, max_steps: 120}\n"
-          "output: {file: sc.h5, every: 100, fields: [v]}\n"
-          "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
-          "sets:\n  block:\n    method: rkpm\n    integration: msnni\n    material: m\n    force_scatter: %s\n"
-          "    shape: {box: {min: [0, 0, 0], max: [0.5, 0.5, 0.5]}}\n    spacing: 0.0625\n    jitter: 0.3\n"
-          "    initial:\n",
-          scatter ? "true" : "false");
+  ej_buf b = {0};
+  ej_buf_printf(&b,
+                "ejecta: 1\ndimension: 3\ntime: {end: 100, cfl: 0.4, max_steps: 120}\n"
+                "output: {file: sc.h5, every: 100, fields: [v]}\n"
+                "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
+                "sets:\n  block:\n    method: rkpm\n    integration: msnni\n    material: m\n    force_scatter: %s\n"
+                "    shape: {box: {min: [0, 0, 0], max: [0.5, 0.5, 0.5]}}\n    spacing: 0.0625\n    jitter: 0.3\n"
+                "    initial:\n",
+                scatter ? "true" : "false");
   char init[4096];
   smooth_block_initial(init, sizeof init, 0.08);
-  fputs(init, fp);
-  fputs("boundaries:\n  - {symmetry: {point: [0, 0, 0], normal: [1, 0, 0]}, set: block}\n", fp);
-  fclose(fp);
-  rk_run r;
-  rk_run_scene(&r, scene, out, threads);
-  ej_set *set = r.sim->sets[0];
+  ej_buf_printf(&b, "%s", init);
+  ej_buf_printf(&b, "boundaries:\n  - {symmetry: {point: [0, 0, 0], normal: [1, 0, 0]}, set: block}\n");
+  vscene c;
+  rk_run_text(&c, &b, threads);
+  ej_set *set = c.r.sim->sets[0];
   const int n = (int)ej_set_count(set);
   const ej_real *v = ej_set_field(set, "v"), *x = ej_set_field(set, "x");
   const int32_t *id = ej_set_field_int(set, "id");
   for (int i = 0; i < n; ++i) /* by particle id: the order is the last rebuild's */
     for (int c = 0; c < 3; ++c) v_out[3 * id[i] + c] = v[3 * i + c], x_out[3 * id[i] + c] = x[3 * i + c];
   *rebuilds = ej_set_list_builds(set);
-  rk_run_done(&r, dir, scene, out, "sc.xdmf");
+  vscene_free(&c);
   return n;
 }
 

@@ -78,9 +78,9 @@ typedef struct vscene {
 } vscene;
 
 /* Writes the printf-formatted scene, registers the np static plugins, loads the scene and creates
- * its sim (1 thread, output dir/out.h5). Returns the first error; the caller asserts on it. */
-static inline ej_err vscene_open(vscene *c, const char *tag, const ej_plugin_info *const *plugins, int np,
-                                 const char *fmt, va_list ap)
+ * its sim (threads threads, output dir/out.h5). Returns the first error; the caller asserts on it. */
+static inline ej_err vscene_open_threads(vscene *c, const char *tag, const ej_plugin_info *const *plugins, int np,
+                                         int threads, const char *fmt, va_list ap)
 {
   memset(c, 0, sizeof *c);
   vrun_dir(c->dir, sizeof c->dir, tag);
@@ -94,8 +94,15 @@ static inline ej_err vscene_open(vscene *c, const char *tag, const ej_plugin_inf
   for (int k = 0; k < np; ++k) ck_assert_int_eq(ej_registry_add_static(c->r.reg, plugins[k]), EJ_OK);
   ej_err rc = ej_scene_load(c->scene, c->r.reg, &c->r.scene);
   if (rc != EJ_OK) return rc;
-  ej_run_opts o = {.threads = 1, .output = c->out};
+  ej_run_opts o = {.threads = threads, .output = c->out};
   return ej_sim_create(c->r.scene, c->r.reg, &o, &c->r.sim);
+}
+
+/* vscene_open_threads on 1 thread. */
+static inline ej_err vscene_open(vscene *c, const char *tag, const ej_plugin_info *const *plugins, int np,
+                                 const char *fmt, va_list ap)
+{
+  return vscene_open_threads(c, tag, plugins, np, 1, fmt, ap);
 }
 
 static inline void vscene_free(vscene *c)

@@ -704,6 +704,23 @@ static inline RK_ALWAYS_INLINE void rk_taylor_parts(const int dim, ej_real m0, c
   }
 }
 
+/* The Taylor form of neighbour J at node L's flagged face points (rk_taylor_parts weighted by
+ * phi_J(x_L)), scaled so that Psi_J(x_L + hq q) = *ln - gn . q: c = x_L - x_J, J's support aj
+ * (inv_aj = 1/aj), l = a_L; zero where x_L is outside J's support. */
+static inline RK_ALWAYS_INLINE void rk_taylor_piece(const int dim, const rk_args *A, ej_idx L, ej_real c0,
+                                                   ej_real c1, ej_real c2, ej_real aj, ej_real inv_aj,
+                                                   ej_real inv_l, ej_real hq, ej_real *ln_out, ej_real gn_out[3])
+{
+  const ej_real r2c = c0 * c0 + c1 * c1 + c2 * c2;
+  *ln_out = gn_out[0] = gn_out[1] = gn_out[2] = 0.0;
+  if (!(r2c < aj * aj)) return;
+  const ej_real hv[3] = {c0 * inv_l, c1 * inv_l, c2 * inv_l};
+  const ej_real wn = rk_phi(sqrt(r2c) * inv_aj);
+  ej_real ln = 0.0, gn[3] = {0, 0, 0};
+  rk_taylor_parts(dim, A->m0[L], A->m1 + 3 * L, A->m2 + 6 * L, hv, inv_l, &ln, gn);
+  *ln_out = ln * wn, gn_out[0] = gn[0] * wn * hq, gn_out[1] = gn[1] * wn * hq, gn_out[2] = gn[2] * wn * hq;
+}
+
 /* Face-point moment accumulators of a node by padded position (face groups, rk_faces_init):
  * m0 = sum phi, m_a = sum phi h_a, m_ab = sum phi h_a h_b with h = (x_f - x_J)/l (003 Eq 5). */
 enum { RK_M0, RK_M1, RK_M2, RK_M3, RK_M11, RK_M22, RK_M33, RK_M12, RK_M13, RK_M23, RK_NM };
@@ -991,17 +1008,9 @@ static inline RK_ALWAYS_INLINE int rk_box_fused_node(const int dim, const rk_sta
   const bool taylor = s->fflag[id[L]] > 0;
   ej_real lnn[RK_NB_FUSE], gnn[RK_NB_FUSE][3];
   if (taylor)
-    for (int t = 0; t < nn; ++t) {
-      const ej_real c0 = cx[t], c1 = cy[t], c2 = cz[t], aj = aa[t], inv_aj = ia[t];
-      const ej_real r2c = c0 * c0 + c1 * c1 + c2 * c2;
-      lnn[t] = gnn[t][0] = gnn[t][1] = gnn[t][2] = 0.0;
-      if (t > 0 && r2c < aj * aj) {
-        const ej_real hv[3] = {c0 * inv_l, c1 * inv_l, c2 * inv_l};
-        const ej_real wn = rk_phi(sqrt(r2c) * inv_aj);
-        ej_real ln = 0.0, gn[3] = {0, 0, 0};
-        rk_taylor_parts(dim, A->m0[L], A->m1 + 3 * L, A->m2 + 6 * L, hv, inv_l, &ln, gn);
-        lnn[t] = ln * wn, gnn[t][0] = gn[0] * wn * hq, gnn[t][1] = gn[1] * wn * hq, gnn[t][2] = gn[2] * wn * hq;
-      }
+    for (int t = 0; t < nn; ++t) { /* the node itself is skipped (v_J - v_L = 0) */
+      rk_taylor_piece(dim, A, L, cx[t], cy[t], cz[t], aa[t], ia[t], inv_l, hq, &lnn[t], gnn[t]);
+      if (t == 0) lnn[0] = gnn[0][0] = gnn[0][1] = gnn[0][2] = 0.0;
     }
   for (int g = 0, it = 0; g < ng; it += cnt[g], ++g) {
     const int p0 = 4 * g;
@@ -1330,16 +1339,7 @@ static inline RK_ALWAYS_INLINE void rk_box_grad_rows(const int dim, const bool l
           dx[nn][c] = lag ? x[3 * j + c] - x[3 * L + c] : 0.0;
         }
         lnn[nn] = gnn[nn][0] = gnn[nn][1] = gnn[nn][2] = 0.0;
-        if (taylor) {
-          const ej_real r2c = c0 * c0 + c1 * c1 + c2 * c2;
-          if (r2c < aj * aj) {
-            const ej_real hv[3] = {c0 * inv_l, c1 * inv_l, c2 * inv_l};
-            const ej_real wn = rk_phi(sqrt(r2c) * inv_aj);
-            ej_real ln = 0.0, gn[3] = {0, 0, 0};
-            rk_taylor_parts(dim, A->m0[L], A->m1 + 3 * L, A->m2 + 6 * L, hv, inv_l, &ln, gn);
-            lnn[nn] = ln * wn, gnn[nn][0] = gn[0] * wn * hq, gnn[nn][1] = gn[1] * wn * hq, gnn[nn][2] = gn[2] * wn * hq;
-          }
-        }
+        if (taylor) rk_taylor_piece(dim, A, L, c0, c1, c2, aj, inv_aj, inv_l, hq, &lnn[nn], gnn[nn]);
       }
       for (int g = 0; g < ng; ++g) {
         const ej_real gx = gcx[g][0], gy = gcx[g][1], gz = gcx[g][2], gr = grx[g];
@@ -1622,16 +1622,7 @@ static inline RK_ALWAYS_INLINE void rk_box_scatter_node(const int dim, const rk_
     for (int c = 0; c < 3; ++c)
       for (int l = 0; l < 4; ++l) F[t][c][l] = 0.0;
     lnn[t] = gnn[t][0] = gnn[t][1] = gnn[t][2] = 0.0;
-    if (taylor) {
-      const ej_real aj = ra[j], r2c = cx[t] * cx[t] + cy[t] * cy[t] + cz[t] * cz[t];
-      if (r2c < aj * aj) {
-        const ej_real hv[3] = {cx[t] * inv_l, cy[t] * inv_l, cz[t] * inv_l};
-        const ej_real wn = rk_phi(sqrt(r2c) * (1.0 / aj));
-        ej_real ln = 0.0, gn[3] = {0, 0, 0};
-        rk_taylor_parts(dim, A->m0[L], A->m1 + 3 * L, A->m2 + 6 * L, hv, inv_l, &ln, gn);
-        lnn[t] = ln * wn, gnn[t][0] = gn[0] * wn * hq, gnn[t][1] = gn[1] * wn * hq, gnn[t][2] = gn[2] * wn * hq;
-      }
-    }
+    if (taylor) rk_taylor_piece(dim, A, L, cx[t], cy[t], cz[t], ra[j], 1.0 / ra[j], inv_l, hq, &lnn[t], gnn[t]);
   }
   for (int g = 0, it = 0; g < ng; it += K->cnt[g], ++g) {
     const int p0 = 4 * g;
@@ -2100,7 +2091,7 @@ static inline RK_ALWAYS_INLINE ej_err rk_box_force_rows(const int dim, const rk_
   ej_real gc0[RK_NF_MAX / 4], gc1[RK_NF_MAX / 4], gc2[RK_NF_MAX / 4], gr0[RK_NF_MAX / 4];
   for (int g = 0; g < ng; ++g) gc0[g] = s->gc[g][0], gc1[g] = s->gc[g][1], gc2[g] = s->gc[g][2], gr0[g] = s->gr[g];
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
-    const ej_real ai = ra[i], ai2 = ai * ai, inv_ai = 1.0 / ai;
+    const ej_real ai = ra[i], inv_ai = 1.0 / ai;
     ej_real fo[3] = {0, 0, 0}, fs[3] = {0, 0, 0}; /* fs: the scattered shares, in list order */
     /* Traction sum in 4 lane-wise partial sums, in (L, group) order: thread-count independent. */
     ej_real s0[4] = {0, 0, 0, 0}, s1[4] = {0, 0, 0, 0}, s2[4] = {0, 0, 0, 0};
@@ -2125,18 +2116,13 @@ static inline RK_ALWAYS_INLINE ej_err rk_box_force_rows(const int dim, const rk_
         ej_real c0 = X[3 * L] - X[3 * i], c1 = 0.0, c2 = 0.0; /* x_L - x_I */
         if (dim > 1) c1 = X[3 * L + 1] - X[3 * i + 1];
         if (dim > 2) c2 = X[3 * L + 2] - X[3 * i + 2];
-        const ej_real r2c = c0 * c0 + c1 * c1 + c2 * c2, inv_l = 1.0 / ra[L];
+        const ej_real inv_l = 1.0 / ra[L];
         const ej_real *b = s->fb + (size_t)id[L] * RK_NF_MAX * 4, *T = s->ft + (size_t)id[L] * RK_NF_MAX * 3;
         const bool taylor = s->fflag[id[L]] > 0;
         cc[nn][0] = c0, cc[nn][1] = c1, cc[nn][2] = c2, hqs[nn] = hq, il[nn] = inv_l, tay[nn] = taylor;
         lnn[nn] = gnn[nn][0] = gnn[nn][1] = gnn[nn][2] = 0.0;
-        if (taylor && r2c < ai2) { /* Taylor pieces (flagged face points), in L's own frame */
-          const ej_real hv[3] = {c0 * inv_l, c1 * inv_l, c2 * inv_l};
-          const ej_real wn = rk_phi(sqrt(r2c) * inv_ai);
-          ej_real ln = 0.0, gn[3] = {0, 0, 0};
-          rk_taylor_parts(dim, A->m0[L], A->m1 + 3 * L, A->m2 + 6 * L, hv, inv_l, &ln, gn);
-          lnn[nn] = ln * wn, gnn[nn][0] = gn[0] * wn * hq, gnn[nn][1] = gn[1] * wn * hq, gnn[nn][2] = gn[2] * wn * hq;
-        }
+        if (taylor) /* Taylor pieces (flagged face points), in L's own frame */
+          rk_taylor_piece(dim, A, L, c0, c1, c2, ai, inv_ai, inv_l, hq, &lnn[nn], gnn[nn]);
         Bp[nn] = b, Tp[nn] = T;
         if (L >= n_owned) {
           ej_real sg[3];
