@@ -45,6 +45,8 @@ static void *param_ptr(const ej_param *t, void *cfg, const char *name)
   return (char *)cfg + find_param(t, name)->offset;
 }
 
+static int g_visc_switch; /* the sph visc_switch enum of the next fix_open: 0 none, 1 balsara */
+
 /* sph (strength: true) with `material` ("elastic" E 200 GPa nu 0.3 or "von_mises" with
  * sigma_y 250 MPa, H 2 GPa), no EOS. */
 static void fix_open(sfix *f, int dim, ej_idx n, const char *material, bool correction, bool art)
@@ -63,6 +65,7 @@ static void fix_open(sfix *f, int dim, ej_idx n, const char *material, bool corr
   *(bool *)param_ptr(f->mops->params, f->mcfg, "strength") = true;
   *(bool *)param_ptr(f->mops->params, f->mcfg, "correction") = correction;
   *(bool *)param_ptr(f->mops->params, f->mcfg, "art_stress") = art;
+  *(int *)param_ptr(f->mops->params, f->mcfg, "visc_switch") = g_visc_switch;
   ck_assert_int_eq(ej_registry_require(f->reg, EJ_KIND_MATERIAL, material, NULL, &ops), EJ_OK);
   f->matops = ops;
   f->matcfg = ej_calloc(1, f->matops->config_size);
@@ -342,6 +345,70 @@ START_TEST(test_art_stress_tension_only)
 }
 END_TEST
 
+/* visc_switch: balsara (sph README "Viscosity switch"): on a 3D lattice moving in pure shear
+ * v_x = g y the factor f = |div v| / (|div v| + |curl v| + 1e-4 c/h) vanishes and so does the
+ * artificial viscosity's work rate (without the switch it is positive: shear has approaching
+ * pairs); in uniform compression v = -e x f is e / (e + 1e-4 c/h), close to 1, and the work rate is
+ * that of the run without the switch times f. Momentum and energy rates still vanish. */
+static double switch_run(int sw, int mode, double *f_lo, double *f_hi)
+{
+  const ej_real dx = 1e-3, g = 1e5;
+  g_visc_switch = sw;
+  sfix f;
+  const ej_idx n = lattice(&f, 3, 16, dx, 0.0, 3u, "elastic", false, false);
+  g_visc_switch = 0;
+  ej_real *x = ej_set_field(f.set, "x"), *v = ej_set_field(f.set, "v"), *m = ej_set_field(f.set, "m");
+  for (ej_idx i = 0; i < n; ++i) {
+    v[3 * i] = mode ? -g * x[3 * i] : g * x[3 * i + 1];
+    v[3 * i + 1] = mode ? -g * x[3 * i + 1] : 0.0;
+    v[3 * i + 2] = mode ? -g * x[3 * i + 2] : 0.0;
+  }
+  fix_start(&f);
+  f.dt = 1e-12;
+  fix_compute(&f);
+  const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
+  const ej_real *wdot = ej_set_field(f.set, "w_visc_dot");
+  const ej_real *fs = sw ? ej_set_field(f.set, "visc_switch") : NULL;
+  ck_assert(!sw || fs);
+  ck_assert(sw || ej_set_find_field(f.set, "visc_switch") < 0);
+  double W = 0;
+  *f_lo = 1e300, *f_hi = -1e300;
+  for (ej_idx i = 0; i < n; ++i) {
+    /* the kernel sums are one-sided within 2h = 2.6 dx of the faces (at 7.5 dx): rows within 2.2 dx of
+     * the centre see only neighbours whose own sums are whole */
+    if (!interior(x, i, 3, 2.2 * dx)) continue;
+    W += m[i] * wdot[i];
+    if (fs) *f_lo = fmin(*f_lo, fs[i]), *f_hi = fmax(*f_hi, fs[i]);
+  }
+  const rate_sums rs = rate_sums_of(n, m, v, a, edot);
+  for (int d = 0; d < 3; ++d)
+    ck_assert_msg(fabs(rs.P[d]) < 1e-13 * rs.Pabs, "switch %d mode %d: momentum rate %g (scale %g)", sw, mode, rs.P[d],
+                  rs.Pabs);
+  ck_assert_msg(fabs(rs.E) < 1e-12 * rs.Eabs, "switch %d mode %d: energy rate %g (scale %g)", sw, mode, rs.E, rs.Eabs);
+  fix_close(&f);
+  return W;
+}
+
+START_TEST(test_balsara_switch)
+{
+  double lo, hi;
+  const double w_shear = switch_run(0, 0, &lo, &hi), w_shear_b = switch_run(1, 0, &lo, &hi);
+  fprintf(stderr, "sph balsara, pure shear: interior viscous work rate %.3e without, %.3e with the switch, f in [%.2e, %.2e]\n",
+          w_shear, w_shear_b, lo, hi);
+  ck_assert_msg(w_shear > 0.0, "no viscous work in shear without the switch: %g", w_shear);
+  ck_assert_msg(hi < 1e-6, "shear: switch factor up to %g", hi);
+  ck_assert_msg(fabs(w_shear_b) < 1e-6 * w_shear, "shear: viscous work %g with the switch (%g without)", w_shear_b,
+                w_shear);
+  const double w_comp = switch_run(0, 1, &lo, &hi), w_comp_b = switch_run(1, 1, &lo, &hi);
+  fprintf(stderr, "sph balsara, compression: interior viscous work rate %.3e without, %.3e with the switch, f in [%.5f, %.5f]\n",
+          w_comp, w_comp_b, lo, hi);
+  ck_assert_msg(w_comp > 0.0, "no viscous work in compression: %g", w_comp);
+  ck_assert_msg(lo > 0.98 && hi <= 1.0, "compression: switch factor in [%g, %g]", lo, hi);
+  ck_assert_msg(w_comp_b > 0.98 * w_comp && w_comp_b <= w_comp * (1 + 1e-12), "compression: work %g with, %g without",
+                w_comp_b, w_comp);
+}
+END_TEST
+
 /* strength: true needs a strength model, and a strength model needs strength: true. */
 START_TEST(test_config)
 {
@@ -370,6 +437,7 @@ int main(void)
   tcase_add_test(tm, test_conservation);
   tcase_add_test(tm, test_art_stress_tension_only);
   tcase_add_test(tm, test_config);
+  tcase_add_test(tm, test_balsara_switch);
   suite_add_tcase(s, tm);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

@@ -53,6 +53,8 @@ VARIANTS = {
     "fixed_h": ("constant smoothing length (variable_h: false) in the bar",
                 [("    art_stress: false\n", "    art_stress: false\n    variable_h: false\n")]),
     "xsph": ("XSPH 0.5 in the bar", [("    art_stress: false\n", "    art_stress: false\n    xsph: 0.5\n")]),
+    "balsara": ("Balsara viscosity switch in the bar (visc_switch: balsara): Pi_ij x (f_i + f_j)/2",
+                [("    art_stress: false\n", "    art_stress: false\n    visc_switch: balsara\n")]),
     "no_renorm": ("continuity without the divergence renormalisation (renormalize: false)",
                   [("    art_stress: false\n", "    art_stress: false\n    renormalize: false\n")]),
 }

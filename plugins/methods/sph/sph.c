@@ -44,6 +44,7 @@ typedef struct sph_config {
   bool art_stress;
   ej_real art_eps, art_n;
   ej_real xsph;
+  int visc_switch; /* SPH_VSW_*: none, or Balsara's factor on Pi_ij (strength: true) */
   int geometry; /* SPH_GEOM_*: planar, or 1D spherical (x = r) */
   int spherical_energy; /* geometry: spherical: 0 local pdV form, 1 exact pair form away from the axis */
   ej_real conductivity; /* artificial conductivity alpha_u (Price 2008); 0: off */
@@ -65,6 +66,8 @@ static const char *const sph_shape_energy_names[] = {"own", "symmetric", NULL};
 enum { SPH_SHAPE_CONT_OWN = 0, SPH_SHAPE_CONT_SYMMETRIC = 1 };
 static const char *const sph_shape_cont_names[] = {"own", "symmetric", NULL};
 enum { SPH_RATE_HW = 0, SPH_RATE_JAUMANN = 1 };
+enum { SPH_VSW_NONE = 0, SPH_VSW_BALSARA = 1 };
+static const char *const sph_visc_switch_names[] = {"none", "balsara", NULL};
 static const char *const sph_stress_rate_names[] = {"hughes_winget", "jaumann", NULL};
 enum { SPH_GEOM_PLANAR = 0, SPH_GEOM_SPHERICAL = 1 };
 static const char *const sph_geometry_names[] = {"planar", "spherical", NULL};
@@ -166,6 +169,11 @@ static const ej_param sph_params[] = {
     EJ_PARAM_REAL(sph_config, xsph, "1", 0.0, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "With strength: XSPH coefficient epsilon (Monaghan 1989): after each step the particles move by "
                   "dt eps sum_j (m_j/rhobar_ij) (v_j - v_i) W_ij on top of the integrator; 0 is off."),
+    EJ_PARAM_ENUM(sph_config, visc_switch, sph_visc_switch_names, "none",
+                  "With strength: none, or balsara: Pi_ij is multiplied by (f_i + f_j)/2, f = |div v| / (|div v| + "
+                  "|curl v| + 1e-4 c/h) from the stress pass's velocity gradient (Balsara, JCP 121 (1995) 357): the "
+                  "viscosity stays in compression and fades in shear, where it otherwise drags across a shear band "
+                  "with about alpha rho c dv at any spacing (README \"Viscosity switch\")."),
     EJ_PARAM_ENUM(sph_config, geometry, sph_geometry_names, "planar",
                   "planar, or spherical (dimension: 1 only): x is the radius r >= 0 of a spherically symmetric "
                   "flow, m the true shell mass, the 1D sums use the line mass m/(4 pi r^2) and the divergence "
@@ -277,6 +285,12 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
                 "without walls), added to L_i before the material update."},
     };
     for (size_t k = 0; k < sizeof solid / sizeof solid[0]; ++k) EJ_TRY(ej_decl_field(d, &solid[k]));
+    if (cfg->visc_switch == SPH_VSW_BALSARA) {
+      static const ej_field_decl sw = {
+          .name = "visc_switch", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "1",
+          .doc = "Balsara factor |div v| / (|div v| + |curl v| + 1e-4 c/h) of the step (viscosity_switch: balsara)."};
+      EJ_TRY(ej_decl_field(d, &sw));
+    }
   }
   if (cfg->geometry == SPH_GEOM_SPHERICAL) {
     static const ej_field_decl geom = {
@@ -1400,7 +1414,7 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
  * (the initial spacing). The Monaghan viscosity Pi_ij is the one of the gas path (000 Eq 26). */
 
 typedef struct sph_solid_args {
-  const ej_real *x, *v, *m, *rho, *c, *h, *L, *sr2, *R;
+  const ej_real *x, *v, *m, *rho, *c, *h, *L, *sr2, *R, *fsw;
   ej_real *a, *e_dot, *w_dot, *mu_max, *vx;
   const ej_off *off;
   const ej_idx *idx;
@@ -1748,8 +1762,10 @@ static ej_err sph_solid_stress_pass(const sph_state *s, ej_set *set, const ej_nb
   const ej_real *L = s->cfg.correction ? ej_set_field(set, "L_corr") : NULL;
   const ej_real *L_wall = ej_set_field(set, "L_wall"); /* filled by sph_wall's pre-pass (or zero) */
   int32_t *failed = ej_set_field_int(set, "failed");
+  ej_real *fsw = s->cfg.visc_switch == SPH_VSW_BALSARA ? ej_set_field(set, "visc_switch") : NULL;
   EJ_ENSURE(x && v && m && h && e && rho && rho_dot && p && c && stress && d_rate && c_mat && wp_inc && wp_dot &&
-                sr2 && R && failed && nbr && (!s->cfg.correction || L),
+                sr2 && R && failed && nbr && (!s->cfg.correction || L) &&
+                (s->cfg.visc_switch != SPH_VSW_BALSARA || fsw),
             EJ_ERR_INTERNAL, "set '%s': sph solid fields missing", s->set_name);
   if (r.end <= r.begin) return EJ_OK;
   const ej_real dt = ej_set_dt(set);
@@ -1762,6 +1778,12 @@ static ej_err sph_solid_stress_pass(const sph_state *s, ej_set *set, const ej_nb
       for (int k = 0; k < 9; ++k) Lv[k] += L_wall[9 * (size_t)i + k];
     ej_m3_sym(d_rate + 6 * i, Lv);
     rho_dot[i] += -rho[i] * (Lv[0] + Lv[4] + Lv[8]);
+    if (fsw) { /* Balsara (JCP 121 (1995) 357) with Springel's 1e-4 c/h floor; c of the last evaluation */
+      const ej_real dv = fabs(Lv[0] + Lv[4] + Lv[8]);
+      const ej_real w0 = Lv[7] - Lv[5], w1 = Lv[2] - Lv[6], w2 = Lv[3] - Lv[1]; /* curl: L = grad v, row-major */
+      const ej_real den = dv + sqrt(w0 * w0 + w1 * w1 + w2 * w2) + 1e-4 * c[i] / h[i];
+      fsw[i] = den > 0.0 ? dv / den : 1.0;
+    }
     if (dt > 0.0) {
       ej_m3_skew(W, Lv);
       ej_real *sg = stress + 6 * i;
@@ -1850,16 +1872,23 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
   const ej_real art_n = A->art_n;
   /* 1/f(dx/h): the artificial stress weight f_ij = f(q) / f(dx/h) */
   const ej_real inv_fdx = 1.0 / sph_kernel_f(kernel, dim, A->inv_hf);
-  enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BM, BS0, BR0 = BS0 + 6, BL0 = BR0 + 6, NBUF = BL0 + 6 };
+  /* visc_switch: balsara: Pi_ij gets (f_i + f_j)/2. A run-time choice: without it f_i and the f_j
+   * buffer hold 1.0, so the product is exactly Pi_ij (bitwise the results without the switch) for
+   * one load and three operations per pair, and no further instantiations of this loop */
+  const ej_real *restrict fsw = A->fsw;
+  const bool bals = fsw != NULL;
+  enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BM, BF, BS0, BR0 = BS0 + 6, BL0 = BR0 + 6, NBUF = BL0 + 6 };
   ej_real buf[NBUF][SPH_SOLID_BLK]; /* fixed size: a variable-length array defeats the vectoriser */
   ej_real *restrict bx = buf[BX], *restrict by = buf[BY], *restrict bz = buf[BZ], *restrict bh = buf[BH];
   ej_real *restrict bvx = buf[BVX], *restrict bvy = buf[BVY], *restrict bvz = buf[BVZ];
-  ej_real *restrict brho = buf[BRHO], *restrict bc = buf[BC], *restrict bm = buf[BM];
+  ej_real *restrict brho = buf[BRHO], *restrict bc = buf[BC], *restrict bm = buf[BM], *restrict bf = buf[BF];
   ej_idx jb[SPH_SOLID_BLK];
+  if (!bals)
+    for (int q = 0; q < SPH_SOLID_BLK; ++q) bf[q] = 1.0;
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
     const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
     const ej_real vi0 = v[3 * i], vi1 = dim > 1 ? v[3 * i + 1] : 0.0, vi2 = dim > 2 ? v[3 * i + 2] : 0.0;
-    const ej_real hi = h[i], rhoi = rho[i], ci = c[i];
+    const ej_real hi = h[i], rhoi = rho[i], ci = c[i], fi = bals ? fsw[i] : 1.0;
     const ej_real si0 = sr2[6 * i], si1 = sr2[6 * i + 1], si2 = sr2[6 * i + 2];
     const ej_real si3 = sr2[6 * i + 3], si4 = sr2[6 * i + 4], si5 = sr2[6 * i + 5];
     const ej_real Ri0 = art ? R[6 * i] : 0.0, Ri1 = art ? R[6 * i + 1] : 0.0, Ri2 = art ? R[6 * i + 2] : 0.0;
@@ -1889,12 +1918,14 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
           _mm256_storeu_pd(bvx + q4, V0), _mm256_storeu_pd(bvy + q4, V1);
           sph_solid_g4(v + 2, 3, jb + q4, bvz + q4), sph_solid_g4(rho, 1, jb + q4, brho + q4);
           sph_solid_g4(c, 1, jb + q4, bc + q4), sph_solid_g4(m, 1, jb + q4, bm + q4);
+          if (bals) sph_solid_g4(fsw, 1, jb + q4, bf + q4);
         }
 #endif
       for (int q = q4; q < nk; ++q) {
         const ej_idx j = jb[q];
         bvx[q] = v[3 * j], bvy[q] = dim > 1 ? v[3 * j + 1] : 0.0, bvz[q] = dim > 2 ? v[3 * j + 2] : 0.0;
         brho[q] = rho[j], bc[q] = c[j], bm[q] = m[j];
+        if (bals) bf[q] = fsw[j];
 #if defined(__GNUC__)
         __asm__ volatile(""); /* keeps the gather scalar (as in sph_pairs_blocked) */
 #endif
@@ -1938,7 +1969,8 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
         const ej_real vx = vi0 - bvx[q], vy = dim > 1 ? vi1 - bvy[q] : 0.0, vz = dim > 2 ? vi2 - bvz[q] : 0.0;
         const ej_real vr = vx * rx + vy * ry + vz * rz;
         const ej_real mu = hbar * (vr < 0.0 ? vr : 0.0) * inv_d1;
-        const ej_real pi_ij = (-alpha * 0.5 * (ci + bc[q]) * mu + beta * mu * mu) * 2.0 * inv_rho_sum;
+        const ej_real pi_ij = (-alpha * 0.5 * (ci + bc[q]) * mu + beta * mu * mu) * 2.0 * inv_rho_sum *
+                              (0.5 * (fi + bf[q]));
         mumax = -mu > mumax ? -mu : mumax;
         /* no branches in this loop (only selects): GCC 12 leaves it scalar otherwise */
         const ej_real f = sph_solid_kf(kernel, dim, qq), fr = f * inv_fdx;
@@ -2019,7 +2051,8 @@ static ej_err sph_solid_force_pass(const sph_state *s, ej_set *set, const ej_nbr
                       .idx = nbr ? nbr->idx : NULL, .alpha = s->cfg.alpha, .beta = s->cfg.beta,
                       .eta2 = s->cfg.eta * s->cfg.eta, .art_n = s->cfg.art_n, .inv_hf = 1.0 / s->cfg.h_factor,
                       .kernel = s->cfg.kernel, .dim = s->dim, .corr = s->cfg.correction,
-                      .art = s->cfg.art_stress, .vx = ej_set_field(set, "v_xsph"), .xsph = s->cfg.xsph};
+                      .art = s->cfg.art_stress, .vx = ej_set_field(set, "v_xsph"), .xsph = s->cfg.xsph,
+                      .fsw = s->cfg.visc_switch == SPH_VSW_BALSARA ? ej_set_field(set, "visc_switch") : NULL};
   EJ_ENSURE(A.x && A.v && A.m && A.rho && A.c && A.h && A.sr2 && A.R && A.a && A.e_dot && A.w_dot && A.mu_max &&
                 A.off && (!A.corr || A.L),
             EJ_ERR_INTERNAL, "set '%s': sph solid fields missing", s->set_name);
@@ -2319,6 +2352,9 @@ static ej_err sph_check_config(const void *config, ej_diag *diag)
     return ej_diag_error(diag, "gradient", "strength: true supports gradient: kernel only (with optional correction)");
   if (cfg->strength && cfg->density == SPH_DENS_SUMMATION)
     return ej_diag_error(diag, "density", "strength: true supports density: continuity only");
+  if (cfg->visc_switch != SPH_VSW_NONE && !cfg->strength)
+    return ej_diag_error(diag, "visc_switch", "visc_switch: balsara needs strength: true (it uses the velocity "
+                                              "gradient of the solid stress pass)");
   if (cfg->gradient == SPH_GRAD_SHAPE && cfg->correction)
     return ej_diag_error(diag, "correction",
                          "correction applies to the kernel gradient only; gradient: shape_tensor is already "
