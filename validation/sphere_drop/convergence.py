@@ -7,7 +7,8 @@ prints a Markdown table. delta_0 is an extrapolation, not a measurement: check.p
 on the computed depths.
 
     /usr/bin/python3 validation/sphere_drop/convergence.py --height 0.1 \\
-        --run 0.006:OUT6.h5 --run 0.004:OUT4.h5 --run 0.003:OUT3.h5 [--depth 0.084]
+        --run 0.006:OUT6.h5 --run 0.004:OUT4.h5 --run 0.003:OUT3.h5 [--depth 0.084] [--label TEXT]
+        [--other 0.006:OLD6.h5 ... --other-label TEXT]   # a second series for comparison, no fit
 """
 import argparse
 import math
@@ -47,15 +48,23 @@ def main():
     ap.add_argument("--run", action="append", required=True, help="SPACING:PATH of a check.py output (.h5)")
     ap.add_argument("--depth", type=float, default=0.084, help="bed depth of the runs (check.py --depth)")
     ap.add_argument("--png", default=os.path.join(HERE, "sphere_drop_convergence.png"))
+    ap.add_argument("--label", default="ejecta RKPM bed (computed, ball stopped)", help="legend of the --run series")
+    ap.add_argument("--other", action="append", default=[],
+                    help="SPACING:PATH of a second series drawn for comparison (no fit), e.g. another setting")
+    ap.add_argument("--other-label", default="other setting", help="legend of the --other series")
     a = ap.parse_args()
-    rows = []
-    for item in a.run:
-        sp, path = item.split(":", 1)
-        s = float(sp)
-        t, zc, vz, _, _ = check.ball_track(path)
-        pen = check.surface(s, a.depth) - (zc - check.R)
-        rows.append((s, float(np.max(pen)), float(vz[-1]), float(t[-1])))
-    rows.sort()
+
+    def depths(items):
+        out = []
+        for item in items:
+            sp, path = item.split(":", 1)
+            s = float(sp)
+            t, zc, vz, _, _ = check.ball_track(path)
+            pen = check.surface(s, a.depth) - (zc - check.R)
+            out.append((s, float(np.max(pen)), float(vz[-1]), float(t[-1])))
+        return sorted(out)
+
+    rows, other = depths(a.run), depths(a.other)
     exp = check.EXP.get(a.height)
     v0 = math.sqrt(2 * check.G * a.height)
     print(f"h = {a.height * 1000:.0f} mm (v0 {v0:.3f} m/s), Seguin delta/d = {exp} +-0.2")
@@ -64,6 +73,11 @@ def main():
     for s, d, ve, _ in rows:
         print(f"| {s * 1000:g} | {d * 1000:.1f} | {d / check.D:.3f} | {100 * (d / check.D / exp - 1):+.1f} % | {ve:.3f} | "
               f"{'yes' if abs(ve) < 0.05 * v0 else 'no'} |")
+    if other:
+        print(f"{a.other_label}:")
+        for s, d, ve, _ in other:
+            print(f"| {s * 1000:g} | {d * 1000:.1f} | {d / check.D:.3f} | {100 * (d / check.D / exp - 1):+.1f} % | "
+                  f"{ve:.3f} | {'yes' if abs(ve) < 0.05 * v0 else 'no'} |")
     s = np.array([r[0] for r in rows])
     d = np.array([r[1] for r in rows])
     k, d0 = np.polyfit(s, d, 1)
@@ -82,7 +96,10 @@ def main():
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         fig, ax = plt.subplots(figsize=(6, 4))
-        ax.plot(s * 1000, d / check.D, "o", label="ejecta RKPM bed (computed, ball stopped)")
+        ax.plot(s * 1000, d / check.D, "o", label=a.label)
+        if other:
+            ax.plot([r[0] * 1000 for r in other], [r[1] / check.D for r in other], "s", color="0.5", mfc="none",
+                    label=a.other_label)
         ss = np.linspace(0, s.max() * 1.05, 50)
         ax.plot(ss * 1000, (d0 + k * ss) / check.D, "--", label=f"least-squares line, s -> 0: {d0 / check.D:.2f} d")
         if order:
@@ -93,7 +110,8 @@ def main():
         ax.axhline(exp * (1 - check.TOL), color="r", lw=0.8, label="target band (20 %)")
         ax.axhline(exp * (1 + check.TOL), color="r", lw=0.8)
         ax.set_xlabel("bed spacing s [mm]"), ax.set_ylabel("final depth / d")
-        ax.set_xlim(0, s.max() * 1050), ax.set_ylim(0, exp * 1.3)
+        smax = max([s.max()] + [r[0] for r in other])
+        ax.set_xlim(0, smax * 1050), ax.set_ylim(0, exp * 1.3)
         ax.set_title(f"sphere drop h = {a.height * 1000:.0f} mm: bed resolution")
         ax.legend(fontsize=7, loc="lower left")
         fig.tight_layout()
