@@ -215,6 +215,7 @@ START_TEST(test_params_and_ops)
                          "shape_viscosity", "shape_energy", "shape_continuity",
                          "shape_rcond_min", "h_factor", "h_min", "h_max", "variable_h", "alpha", "beta", "eta",
                          "rho_min", "drho_max", "strength", "stress_rate", "art_stress", "art_eps", "art_n", "xsph",
+                         "visc_switch",
                          "geometry", "spherical_energy", "conductivity"};
   const int np = (int)(sizeof names / sizeof names[0]);
   for (int k = 0; k < np; ++k) ck_assert_str_eq(f.mops->params[k].name, names[k]);
