@@ -288,7 +288,7 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
     if (cfg->visc_switch == SPH_VSW_BALSARA) {
       static const ej_field_decl sw = {
           .name = "visc_switch", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "1",
-          .doc = "Balsara factor |div v| / (|div v| + |curl v| + 1e-4 c/h) of the step (viscosity_switch: balsara)."};
+          .doc = "Balsara factor |div v| / (|div v| + |curl v| + 1e-4 c/h) of the step (visc_switch: balsara)."};
       EJ_TRY(ej_decl_field(d, &sw));
     }
   }
