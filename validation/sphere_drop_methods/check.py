@@ -34,9 +34,9 @@ G = 9.80665
 EXP = {0.1: 1.4, 0.3: 2.4, 0.5: 2.85}  # delta/d, +-0.2 (Seguin 2008 via 003 Table 12)
 TOL = 0.20
 BED = {
-    # stabilization 0 as in validation/sphere_drop (since 2026-11-29): rkpm's pairwise viscous term
+    # the stabilization of validation/sphere_drop (0 since 2026-11-29): rkpm's pairwise viscous term
     # drags across a shear band with 0.051 stabilization rho c dv at any spacing (rkpm README)
-    "rkpm": "method: rkpm\n    stabilization: 0",
+    "rkpm": f"method: rkpm\n    stabilization: {sphere_drop.STABILIZATION:g}",
     "tlpd": "method: tlpd",
     "sph": "method: sph\n    strength: true",
 }
