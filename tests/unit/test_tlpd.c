@@ -767,6 +767,55 @@ START_TEST(test_stable_dt_family)
 }
 END_TEST
 
+/* The cached family step is recomputed only where a family changed: after a bond breaks at
+ * x = 0.21 (rows 0.205 and 0.215), exactly the particles whose family holds one of those rows
+ * (0.195 .. 0.225 at horizon 1.5 dx) get a new pd_dt_fam_t, every other keeps its time, and every
+ * cached value equals a computation from scratch. */
+START_TEST(test_stable_dt_family_cache)
+{
+  const char *y = "ejecta: 1\ndimension: 1\ntime: {end: 1e-6}\n"
+                  "materials: {m: {model: elastic, rho0: 2000, E: 1 GPa, nu: 0}}\n"
+                  "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0], max: [0.4]}}, spacing: 0.01, "
+                  "horizon: 1.5, partial_volume: false, hourglass: zhu_zhao, hourglass_coefficient: 0.5, "
+                  "failure: {critical_stretch: 0.01}}}\n";
+  trun r;
+  trun_open(&r, y);
+  ej_set *s = r.sim->sets[0];
+  const ej_idx n = ej_set_count(s);
+  trun_compute(&r);
+  const double dx = 0.01;
+  const ej_real *x0 = ej_set_field(s, "x0");
+  ej_real *dt_fam = ej_set_field(s, "pd_dt_fam"), *dt_fam_t = ej_set_field(s, "pd_dt_fam_t");
+  ck_assert(s->t == &r.sim->t);
+  ej_real dt = 0;
+  r.sim->t = 1e-6;
+  for (ej_idx k = 0; k < n; ++k) dt_fam[k] = 0;
+  ck_assert_int_eq(s->mops->stable_dt(s->mstate, s, (ej_range){0, n}, &dt), EJ_OK);
+  for (ej_idx k = 0; k < n; ++k) ck_assert(dt_fam_t[k] == 1e-6 && dt_fam[k] > 0);
+  r.sim->t = 2e-6;
+  ej_real *x = ej_set_field(s, "x");
+  for (ej_idx k = 0; k < n; ++k)
+    if (x0[3 * k] > 0.21) x[3 * k] += 0.02 * dx;
+  ck_assert_int_eq(s->mops->post_step(s->mstate, s, (ej_range){0, n}), EJ_OK);
+  ck_assert_int_eq(s->mops->stable_dt(s->mstate, s, (ej_range){0, n}, &dt), EJ_OK);
+  int fresh = 0;
+  for (ej_idx k = 0; k < n; ++k) {
+    const bool near = fabs(x0[3 * k] - 0.21) < 2 * dx;
+    ck_assert_msg(dt_fam_t[k] == (near ? 2e-6 : 1e-6), "x0 %g: cached at %g", x0[3 * k], dt_fam_t[k]);
+    fresh += near;
+  }
+  ck_assert_int_eq(fresh, 4);
+  ej_real *keep = malloc((size_t)n * sizeof *keep);
+  ck_assert_ptr_nonnull(keep);
+  memcpy(keep, dt_fam, (size_t)n * sizeof *keep);
+  for (ej_idx k = 0; k < n; ++k) dt_fam[k] = 0;
+  ck_assert_int_eq(s->mops->stable_dt(s->mstate, s, (ej_range){0, n}, &dt), EJ_OK);
+  for (ej_idx k = 0; k < n; ++k) ck_assert_msg(keep[k] == dt_fam[k], "x0 %g: cached %g, fresh %g", x0[3 * k], keep[k], dt_fam[k]);
+  free(keep);
+  trun_close(&r);
+}
+END_TEST
+
 /* ------------------------------------------------------------------ energy of the rate predictor */
 
 /* The core evaluates e_dot with the predicted velocity v_n + dt a_n; summed over the run this
@@ -872,6 +921,7 @@ int main(void)
   tcase_add_test(tc, test_spring_fallback);
   tcase_add_test(tc, test_thread_determinism);
   tcase_add_test(tc, test_stable_dt_family);
+  tcase_add_test(tc, test_stable_dt_family_cache);
   tcase_add_test(tc, test_energy_correction);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
