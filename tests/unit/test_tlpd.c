@@ -722,6 +722,14 @@ static void det_run(int threads, const char *dir, ej_real **out, ej_idx *n_out)
 
 /* ------------------------------------------------------------------ stable step of the family */
 
+/* The 40-particle chain of the two family-step tests below. */
+static const char *const dt_family_chain =
+    "ejecta: 1\ndimension: 1\ntime: {end: 1e-6}\n"
+    "materials: {m: {model: elastic, rho0: 2000, E: 1 GPa, nu: 0}}\n"
+    "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0], max: [0.4]}}, spacing: 0.01, "
+    "horizon: 1.5, partial_volume: false, hourglass: zhu_zhao, hourglass_coefficient: 0.5, "
+    "failure: {critical_stretch: 0.01}}}\n";
+
 /* 1-D chain, horizon 1.5 dx (one neighbour each side), no partial volumes, nu = 0 (M = E),
  * zhu_zhao hourglass c_h = 0.5. Gershgorin bound of tlpd_stable_dt by hand, interior particle:
  * correspondence rows i-1, i+1 give 2 dx M (1/2dx)(1/dx) = M/dx; hourglass springs (C = c_h E /
@@ -731,13 +739,8 @@ static void det_run(int threads, const char *dir, ej_real **out, ej_idx *n_out)
  * dt = 2 dx / (c sqrt(5.5)). Both below dx/c, so the family bound is what stable_dt returns. */
 START_TEST(test_stable_dt_family)
 {
-  const char *y = "ejecta: 1\ndimension: 1\ntime: {end: 1e-6}\n"
-                  "materials: {m: {model: elastic, rho0: 2000, E: 1 GPa, nu: 0}}\n"
-                  "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0], max: [0.4]}}, spacing: 0.01, "
-                  "horizon: 1.5, partial_volume: false, hourglass: zhu_zhao, hourglass_coefficient: 0.5, "
-                  "failure: {critical_stretch: 0.01}}}\n";
   trun r;
-  trun_open(&r, y);
+  trun_open(&r, dt_family_chain);
   ej_set *s = r.sim->sets[0];
   const ej_idx n = ej_set_count(s);
   ck_assert_int_eq(n, 40);
@@ -773,13 +776,8 @@ END_TEST
  * cached value equals a computation from scratch. */
 START_TEST(test_stable_dt_family_cache)
 {
-  const char *y = "ejecta: 1\ndimension: 1\ntime: {end: 1e-6}\n"
-                  "materials: {m: {model: elastic, rho0: 2000, E: 1 GPa, nu: 0}}\n"
-                  "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0], max: [0.4]}}, spacing: 0.01, "
-                  "horizon: 1.5, partial_volume: false, hourglass: zhu_zhao, hourglass_coefficient: 0.5, "
-                  "failure: {critical_stretch: 0.01}}}\n";
   trun r;
-  trun_open(&r, y);
+  trun_open(&r, dt_family_chain);
   ej_set *s = r.sim->sets[0];
   const ej_idx n = ej_set_count(s);
   trun_compute(&r);
