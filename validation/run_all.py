@@ -14,7 +14,8 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 # every validation/<case>/check.py (and the named extra scripts), in a stable order
-EXTRA = {"ulpd": ["check_sod.py", "check_sedov.py", "check_c4_rod.py"], "material_points": ["run.py"]}
+EXTRA = {"ulpd": ["check_sod.py", "check_sedov.py", "check_c4_rod.py"], "material_points": ["run.py"],
+         "buried_charge": ["fine.py"]}
 
 
 def discover():
