@@ -1895,10 +1895,9 @@ static ej_err tlpd_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass
 /* The bond-breaking test of row i (tlpd_post_step): or-s TLPD_BROKEN into the flags of the bonds
  * stretched beyond the limit (|Y|^2 > lim |X|^2) or, with check_fail, with a failed end; returns
  * nonzero iff a flag changed. check_fail is a constant at both call sites (two vector loops). */
-TLPD_ALWAYS_INLINE int tlpd_break_row(const tlpd_state *s, const ej_real *restrict x,
-                                                                 const ej_real *restrict x0, const ej_real lim,
-                                                                 const int32_t *restrict failed, const bool check_fail,
-                                                                 uint8_t *restrict fl, const ej_idx i)
+TLPD_ALWAYS_INLINE int tlpd_break_row(const tlpd_state *s, const ej_real *restrict x, const ej_real *restrict x0,
+                                      const ej_real lim, const int32_t *restrict failed, const bool check_fail,
+                                      uint8_t *restrict fl, const ej_idx i)
 {
   const ej_real xi0 = x[3 * i], xi1 = x[3 * i + 1], xi2 = x[3 * i + 2];
   const ej_real Xi0 = x0[3 * i], Xi1 = x0[3 * i + 1], Xi2 = x0[3 * i + 2];
@@ -2101,8 +2100,8 @@ static ej_err tlpd_stable_dt(void *state, const ej_set *set, ej_range r, ej_real
        * scan. (pd_t_break is 0 for a row that never broke: a family cached at t = 0 is computed
        * once more after the first break anywhere.) A restart restores dt_fam,
        * its time and pd_t_break: the same decisions. Before 2026-11-29 any break in the set
-       * recomputed every family (a full bond sweep per step while a blast breaks bonds; 19 % of
-       * the fine buried-charge run). */
+       * recomputed every family (a full bond sweep per step while a blast breaks bonds; 30 % of
+       * the fine buried-charge step after set-up). */
       bool stale = !(dt_fam[i] > 0);
       if (!stale && !(dt_fam_t[i] > tr)) {
         ej_real tf = tbrk[i]; /* the family's last break (a max: vectorises, one gather per bond) */
