@@ -70,14 +70,16 @@ def main():
     print(f"h = {a.height * 1000:.0f} mm (v0 {v0:.3f} m/s), Seguin delta/d = {exp} +-0.2")
     print("| bed spacing [mm] | delta [mm] | delta/d | error vs Seguin | ball v_z at the end [m/s] | stopped |")
     print("|---|---|---|---|---|---|")
-    for s, d, ve, _ in rows:
-        print(f"| {s * 1000:g} | {d * 1000:.1f} | {d / check.D:.3f} | {100 * (d / check.D / exp - 1):+.1f} % | {ve:.3f} | "
-              f"{'yes' if abs(ve) < 0.05 * v0 else 'no'} |")
-    if other:
-        print(f"{a.other_label}:")
-        for s, d, ve, _ in other:
+
+    def table(series):
+        for s, d, ve, _ in series:
             print(f"| {s * 1000:g} | {d * 1000:.1f} | {d / check.D:.3f} | {100 * (d / check.D / exp - 1):+.1f} % | "
                   f"{ve:.3f} | {'yes' if abs(ve) < 0.05 * v0 else 'no'} |")
+
+    table(rows)
+    if other:
+        print(f"{a.other_label}:")
+        table(other)
     s = np.array([r[0] for r in rows])
     d = np.array([r[1] for r in rows])
     k, d0 = np.polyfit(s, d, 1)
