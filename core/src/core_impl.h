@@ -329,6 +329,7 @@ struct ej_set {
   int n_hist;
   int f_hist[EJ_MAX_HIST]; /* fields of the strength model's history variables */
   bool in_interaction;     /* a two-set interaction lists it: x_build kept current */
+  ej_real due_d, due_e;    /* skin watch of the step: max |x - x_build|, max of (R - R_build) + |x - x_build| - skin R_build */
   uint8_t *bond_flags;     /* [n_bonds] per CSR entry of a reference family */
   ej_off n_bonds;
   int64_t list_builds;     /* builds of its own list (ej_set_list_builds) */
@@ -425,6 +426,10 @@ ej_err ej_nbrlist_build(ej_nbrlist *L, int dim, const ej_real *xa, const ej_real
                         const ej_real *xb, const ej_real *rb, ej_idx nb, ej_real skin, bool same);
 /* Cell-order permutation of n points for locality: perm[new] = old (stable). */
 ej_err ej_nbr_sort_order(int dim, const ej_real *x, ej_idx n, ej_real cell, ej_idx *perm);
+/* The cell of ej_nbrlist_build's grid for the most populous radius class of the radii
+ * r[0..n) * scale (the class's largest scaled radius; ties: the class of larger radii), so that
+ * ej_nbr_sort_order with it puts most rows' candidates in ascending order. 0 when n is 0. */
+ej_real ej_nbr_sort_cell(const ej_real *r, ej_idx n, ej_real scale);
 /* Renumbers a list after its row set and column set were permuted by perm (perm[new] = old;
  * same permutation for rows and columns: fixed families of one set). */
 ej_err ej_nbrlist_permute(ej_nbrlist *L, const ej_idx *perm);

@@ -741,6 +741,27 @@ ej_err ej_nbrlist_build(ej_nbrlist *L, int dim, const ej_real *xa, const ej_real
   return EJ_OK;
 }
 
+ej_real ej_nbr_sort_cell(const ej_real *r, ej_idx n, ej_real scale)
+{
+  ej_real rmax = 0;
+  for (ej_idx i = 0; i < n; i++) {
+    const ej_real v = r[i] * scale;
+    rmax = v > rmax ? v : rmax;
+  }
+  int64_t cnt[EJ_NCLASS] = {0};
+  ej_real top[EJ_NCLASS] = {0};
+  for (ej_idx i = 0; i < n; i++) {
+    const ej_real v = r[i] * scale; /* the scaled radius of the list build, the same operation */
+    const int c = ej_radius_class(v, rmax);
+    cnt[c]++;
+    top[c] = v > top[c] ? v : top[c];
+  }
+  int best = 0;
+  for (int c = 1; c < EJ_NCLASS; c++)
+    if (cnt[c] > cnt[best]) best = c;
+  return cnt[best] ? top[best] : rmax;
+}
+
 ej_err ej_nbr_sort_order(int dim, const ej_real *x, ej_idx n, ej_real cell, ej_idx *perm)
 {
   EJ_ENSURE(dim >= 1 && dim <= 3, EJ_ERR_ARG, "dimension %d not in 1..3", dim);

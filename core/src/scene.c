@@ -49,7 +49,8 @@ static const ej_param ej_time_params[] = {
 
 static const ej_param ej_neigh_params[] = {
     EJ_PARAM_REAL(ej_neigh_cfg, skin, "1", 0.15, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
-                  "Verlet skin as a fraction of the search radius."),
+                  "Verlet skin as a fraction of each particle's search radius: lists hold the pairs closer than "
+                  "(1 + skin) max(R_i, R_j) at the build."),
     {0}};
 
 static const ej_param ej_top_params[] = {

@@ -759,6 +759,14 @@ static ej_real ej_set_rmax(const ej_set *s, const ej_real *r)
   return m;
 }
 
+/* Search radii of a build scaled by 1 + skin (the per-particle Verlet skin s_i = skin R_i): the
+ * lists are then built with no absolute skin. */
+static void ej_skin_radii(ej_real *r, ej_idx n, ej_real skin)
+{
+  const ej_real f = 1 + skin;
+  for (ej_idx i = 0; i < n; ++i) r[i] *= f;
+}
+
 /* Ghosts and lists from x_build / r_build (shared by a rebuild and a restart). */
 static ej_err ej_lists_from_build(ej_sim *sim)
 {
@@ -790,11 +798,13 @@ static ej_err ej_lists_from_build(ej_sim *sim)
     }
     if (s->nbr_config != EJ_NBR_CURRENT) continue;
     ej_real rmax = ej_set_rmax(s, s->fields[s->f_rb].data);
-    ej_real sk = skin * rmax;
-    EJ_TRY(ej_ghosts_build(sim, s, s->f_xb, rmax + sk));
+    EJ_TRY(ej_ghosts_build(sim, s, s->f_xb, rmax * (1 + skin)));
     ej_real *xs, *rs;
     EJ_TRY(ej_build_points(sim, s, s->f_xb, &xs, &rs));
-    ej_err rc = ej_nbrlist_build(s->list, s->dim, xs, rs, s->n, xs, rs, s->n + s->n_ghost, sk, true);
+    /* per-particle skin (docs/core.md "Neighbours, ghosts, rebuilds"): pair listed iff
+     * |x_ij| < (1 + skin) max(R_i, R_j) at the build */
+    ej_skin_radii(rs, s->n + s->n_ghost, skin);
+    ej_err rc = ej_nbrlist_build(s->list, s->dim, xs, rs, s->n, xs, rs, s->n + s->n_ghost, 0, true);
     ej_free(xs);
     ej_free(rs);
     EJ_TRY(rc);
@@ -803,16 +813,16 @@ static ej_err ej_lists_from_build(ej_sim *sim)
   for (int k = 0; k < sim->n_inter; ++k) {
     ej_inter *in = &sim->inter[k];
     if (!in->b) continue;
-    ej_real ra = ej_set_rmax(in->a, in->a->fields[in->a->f_rb].data);
-    ej_real rb = ej_set_rmax(in->b, in->b->fields[in->b->f_rb].data);
-    ej_real sk = skin * (ra > rb ? ra : rb);
     ej_real *xa, *rra, *xb, *rrb;
     EJ_TRY(ej_build_points(sim, in->a, in->a->f_xb, &xa, &rra));
     ej_err rc = ej_build_points(sim, in->b, in->b->f_xb, &xb, &rrb);
     if (rc == EJ_OK) {
-      rc = ej_nbrlist_build(in->list, sim->dim, xa, rra, in->a->n, xb, rrb, in->b->n + in->b->n_ghost, sk, false);
+      /* per-particle skin, as the sets' own lists: |x_ij| < (1 + skin) max(R_i, R_j) */
+      ej_skin_radii(rra, in->a->n + in->a->n_ghost, skin);
+      ej_skin_radii(rrb, in->b->n + in->b->n_ghost, skin);
+      rc = ej_nbrlist_build(in->list, sim->dim, xa, rra, in->a->n, xb, rrb, in->b->n + in->b->n_ghost, 0, false);
       if (rc == EJ_OK && in->list_ba)
-        rc = ej_nbrlist_build(in->list_ba, sim->dim, xb, rrb, in->b->n, xa, rra, in->a->n + in->a->n_ghost, sk, false);
+        rc = ej_nbrlist_build(in->list_ba, sim->dim, xb, rrb, in->b->n, xa, rra, in->a->n + in->a->n_ghost, 0, false);
       ej_free(xb);
       ej_free(rrb);
     }
@@ -847,7 +857,8 @@ static ej_err ej_rebuild(ej_sim *sim)
     /* Reference sets are sorted once, before their families exist. */
     if (s->nbr_config != EJ_NBR_REFERENCE || sim->n_rebuilds == 0) {
       EJ_TRY(ej_for_chunks(sim, s, ej_support_chunk, NULL));
-      ej_real cell = ej_set_rmax(s, s->radius) * (1 + sc->skin);
+      /* the cells of the list's most populous radius class (its rows then come out ascending) */
+      ej_real cell = ej_nbr_sort_cell(s->radius, s->n, 1 + sc->skin);
       ej_idx *perm = ej_malloc((size_t)s->n * sizeof *perm);
       EJ_ENSURE(perm, EJ_ERR_MEM, "out of memory");
       ej_err rc = ej_nbr_sort_order(s->dim, x, s->n, cell, perm);
@@ -863,8 +874,9 @@ static ej_err ej_rebuild(ej_sim *sim)
   return ej_lists_from_build(sim);
 }
 
-/* Search radii of a chunk and its part of the skin watch: max |x - x_build|^2, max (R - R_build),
- * max R_build (maxima: the same whatever the chunking or thread count). */
+/* Search radii of a chunk and its part of the skin watch: max_p d_p and max_p e_p with
+ * d_p = |x_p - x_build,p|, e_p = (R_p - R_build,p) + d_p - skin R_build,p (maxima: the same whatever
+ * the chunking or thread count). */
 static ej_err ej_due_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
 {
   (void)ctx;
@@ -872,17 +884,17 @@ static ej_err ej_due_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_rang
   else memcpy(s->radius + r.begin, (const ej_real *)s->fields[s->f_rb].data + r.begin,
               (size_t)(r.end - r.begin) * sizeof(ej_real));
   const ej_real *x = s->fields[s->f_x].data, *xb = s->fields[s->f_xb].data, *rb = s->fields[s->f_rb].data;
-  ej_real d2 = 0, grow = 0, rmax = 0;
+  const ej_real *R = s->radius, skin = sim->scene->skin;
+  ej_real dmax = 0, emax = -HUGE_VAL;
   for (ej_idx p = r.begin; p < r.end; ++p) {
-    ej_real dx = x[3 * p] - xb[3 * p], dy = x[3 * p + 1] - xb[3 * p + 1], dz = x[3 * p + 2] - xb[3 * p + 2];
-    ej_real q = dx * dx + dy * dy + dz * dz;
-    d2 = q > d2 ? q : d2;
-    ej_real g = s->radius[p] - rb[p];
-    grow = g > grow ? g : grow;
-    rmax = rb[p] > rmax ? rb[p] : rmax;
+    const ej_real dx = x[3 * p] - xb[3 * p], dy = x[3 * p + 1] - xb[3 * p + 1], dz = x[3 * p + 2] - xb[3 * p + 2];
+    const ej_real d = sqrt(dx * dx + dy * dy + dz * dz);
+    const ej_real e = (R[p] - rb[p]) + d - skin * rb[p];
+    dmax = d > dmax ? d : dmax;
+    emax = e > emax ? e : emax;
   }
   ej_real *cs = sim->chunk_scratch + c * EJ_NSLOT;
-  cs[0] = d2, cs[1] = grow, cs[2] = rmax;
+  cs[0] = dmax, cs[1] = emax;
   return EJ_OK;
 }
 
@@ -890,20 +902,34 @@ static ej_err ej_due_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_rang
  * an interaction searches. */
 static bool ej_due_watched(const ej_set *s) { return s->nbr_config == EJ_NBR_CURRENT || s->in_interaction; }
 
-/* A rebuild is due when a pair now inside max(R_i, R_j) may have been outside the list's
- * reach at the last build: 2 max|x - x_build| + max(R - R_build) > skin. Reads s's chunk maxima of
- * ej_due_chunk (run in the kick-drift region of the step, ej_kick_drift_chunk). */
-static bool ej_due_reduce(const ej_sim *sim, const ej_set *s)
+/* The set's skin watch from its chunk maxima of ej_due_chunk (run in the kick-drift region of the
+ * step, ej_kick_drift_chunk): s->due_d = max_p d_p, s->due_e = max_p e_p. Returns whether s's own
+ * list is due (docs/core.md "Neighbours, ghosts, rebuilds"). A pair is listed iff
+ * |x_ij| < (1 + skin) max(R_i, R_j) at the build; one now inside max(R_i, R_j) (say R_i >= R_j)
+ * was at the build closer than R_i + d_i + d_j, which the list covers while
+ * (R_i - R_build,i) + d_i - skin R_build,i + max_j d_j <= 0, i.e. while due_e + due_d <= 0.
+ * Between two sets a and b: while e_a + d_b <= 0 and e_b + d_a <= 0 (ej_due_pairs). */
+static bool ej_due_reduce(const ej_sim *sim, ej_set *s)
 {
-  ej_real d2 = 0, grow = 0, rmax = 0;
+  ej_real dmax = 0, emax = -HUGE_VAL;
   const int64_t nch = ej_chunk_count(s);
   for (int64_t c = 0; c < nch; ++c) {
     const ej_real *cs = sim->chunk_scratch + c * EJ_NSLOT;
-    d2 = cs[0] > d2 ? cs[0] : d2;
-    grow = cs[1] > grow ? cs[1] : grow;
-    rmax = cs[2] > rmax ? cs[2] : rmax;
+    dmax = cs[0] > dmax ? cs[0] : dmax;
+    emax = cs[1] > emax ? cs[1] : emax;
   }
-  return 2 * sqrt(d2) + grow > sim->scene->skin * rmax;
+  s->due_d = dmax, s->due_e = emax;
+  return s->nbr_config == EJ_NBR_CURRENT && emax + dmax > 0;
+}
+
+/* Whether a two-set interaction's lists are due (after ej_due_reduce of both sets). */
+static bool ej_due_pairs(const ej_sim *sim)
+{
+  for (int k = 0; k < sim->n_inter; ++k) {
+    const ej_inter *in = &sim->inter[k];
+    if (in->b && (in->a->due_e + in->b->due_d > 0 || in->b->due_e + in->a->due_d > 0)) return true;
+  }
+  return false;
 }
 
 /* ------------------------------------------------------------------ forces */
@@ -1711,6 +1737,7 @@ ej_err ej_sim_run(ej_sim *sim)
       EJ_TRY_GOTO(rc, ej_for_chunks(sim, s, ej_kick_drift_chunk, (void *)&watch), out);
       if (watch && ej_due_reduce(sim, s)) due = true;
     }
+    if (!due) due = ej_due_pairs(sim);
     sim->t += sim->dt;
     sim->step++;
     if (due) EJ_TRY_GOTO(rc, ej_rebuild(sim), out);

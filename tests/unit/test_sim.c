@@ -220,6 +220,108 @@ START_TEST(test_symmetry_equals_full)
 }
 END_TEST
 
+/* Pairs (i, j) with |x_i - x_j| < max(R_i, R_j) (the current search radii, candidates' ghosts
+ * included) that the list L (rows: a's owned particles, columns: b's owned and ghost particles)
+ * does not hold. */
+static int missing_pairs(const ej_set *a, const ej_set *b, const ej_nbrlist *L, bool same)
+{
+  const ej_real *xa = ej_set_field((ej_set *)a, "x"), *xb = ej_set_field((ej_set *)b, "x");
+  const ej_off *off = L->pub.off;
+  const ej_idx *idx = L->pub.idx;
+  int missing = 0;
+  for (ej_idx i = 0; i < a->n; ++i)
+    for (ej_idx j = 0; j < b->n + b->n_ghost; ++j) {
+      if (same && j == i) continue;
+      const ej_real rj = b->radius[j < b->n ? j : b->ghost_src[j - b->n]];
+      const ej_real R = a->radius[i] > rj ? a->radius[i] : rj;
+      ej_real r2 = 0;
+      for (int d = 0; d < 3; ++d) r2 += (xa[3 * i + d] - xb[3 * j + d]) * (xa[3 * i + d] - xb[3 * j + d]);
+      if (r2 >= R * R) continue;
+      bool found = false;
+      for (ej_off k = off[i]; k < off[i + 1] && !found; ++k) found = idx[k] == j;
+      missing += !found;
+    }
+  return missing;
+}
+
+/* Runs scene fmt (one %d: max_steps) for 1..40 steps; after each run every pair inside
+ * max(R_i, R_j) is in both sets' lists and in the interaction's. Adds the steps and rebuilds of
+ * the 40-step run, and the extreme radii seen. */
+static void lists_cover(const char *fmt, int64_t *steps, int64_t *rebuilds, ej_real *rmin, ej_real *rmax)
+{
+  for (int k = 1; k <= 40; ++k) {
+    char text[1024];
+    snprintf(text, sizeof text, fmt, k);
+    ej_registry *reg;
+    ej_scene *scene;
+    ej_sim *sim = make_sim(text, &reg, &scene);
+    ck_assert_int_eq(ej_sim_run(sim), EJ_OK);
+    ck_assert_int_eq(sim->step, k);
+    for (int q = 0; q < 2; ++q) {
+      const ej_set *s = sim->sets[q];
+      if (q == 0) ck_assert_int_gt(s->n_ghost, 0);
+      ck_assert_msg(missing_pairs(s, s, s->list, true) == 0, "set %d, step %d: %d pairs missing", q, k,
+                    missing_pairs(s, s, s->list, true));
+      for (ej_idx i = 0; i < s->n; ++i) {
+        *rmax = s->radius[i] > *rmax ? s->radius[i] : *rmax;
+        *rmin = s->radius[i] < *rmin ? s->radius[i] : *rmin;
+      }
+    }
+    const ej_inter *in = &sim->inter[0];
+    ck_assert_msg(missing_pairs(in->a, in->b, in->list, false) == 0, "interaction, step %d: %d pairs missing", k,
+                  missing_pairs(in->a, in->b, in->list, false));
+    if (in->list_ba) ck_assert_int_eq(missing_pairs(in->b, in->a, in->list_ba, false), 0);
+    if (k == 40) *steps += sim->step, *rebuilds += sim->n_rebuilds;
+    done(sim, scene, reg);
+  }
+}
+
+START_TEST(test_lists_cover_support)
+{
+  /* The per-particle Verlet skin (docs/core.md "Neighbours, ghosts, rebuilds"): after every step
+   * of two runs in which the radii change by a large factor (variable h) and particles move fast
+   * -- a gas at 100 times the pressure of its neighbour expanding into it, and two gas blocks
+   * colliding head-on at Mach 25 -- every pair inside max(R_i, R_j) is in the sets' own lists and
+   * in the two-set interaction's lists, mirror ghosts included; the lists are reused between
+   * rebuilds (fewer rebuilds than steps). */
+  int64_t rebuilds = 0, steps = 0;
+  ej_real rmin = HUGE_VAL, rmax = 0;
+  lists_cover("ejecta: 1\ndimension: 2\ntime: {end: 1, max_steps: %d}\n" GAS
+              "sets:\n  hot: {method: sph, material: gas, shape: {box: {min: [0, 0], max: [0.1, 0.2]}}, spacing: 0.01,"
+              " p: 100}\n"
+              "  cold: {method: sph, material: gas, shape: {box: {min: [0.1, 0], max: [0.3, 0.2]}}, spacing: 0.01,"
+              " p: 1}\n"
+              "interactions:\n  - {model: continuum, sets: [hot, cold]}\n"
+              "boundaries:\n  - {symmetry: {point: [0, 0], normal: [1, 0]}}\n",
+              &steps, &rebuilds, &rmin, &rmax);
+  lists_cover("ejecta: 1\ndimension: 2\ntime: {end: 1, max_steps: %d}\n" GAS
+              "sets:\n  left: {method: sph, material: gas, shape: {box: {min: [0, 0], max: [0.1, 0.1]}}, spacing: 0.01,"
+              " p: 1, velocity: [30, 0]}\n"
+              "  right: {method: sph, material: gas, shape: {box: {min: [0.1, 0], max: [0.2, 0.1]}}, spacing: 0.01,"
+              " p: 1, velocity: [-30, 0]}\n"
+              "interactions:\n  - {model: continuum, sets: [left, right]}\n"
+              "boundaries:\n  - {symmetry: {point: [0, 0], normal: [0, 1]}}\n",
+              &steps, &rebuilds, &rmin, &rmax);
+  /* the sharp case: no force at all (p = 0, no viscosity, fixed h), so the layers slide past each
+   * other ballistically, shearing inside 'lower' and across the interface at 2 m/s: pairs close
+   * in at the largest rate the rebuild test allows (a test without max_j d_j misses pairs here) */
+  lists_cover("ejecta: 1\ndimension: 2\ntime: {end: 1, dt: 1e-3, max_steps: %d}\n"
+              "materials:\n  dust: {rho0: 1.0, eos: {model: ideal_gas, gamma: 1.4}}\n"
+              "sets:\n  lower: {method: sph, material: dust, alpha: 0, beta: 0, variable_h: false,"
+              " shape: {box: {min: [0, 0], max: [0.2, 0.1]}}, spacing: 0.01, p: 0, velocity: [1, 0],"
+              " initial: [{region: {box: {min: [-1, 0.05], max: [1, 1]}}, velocity: [-1, 0]}]}\n"
+              "  upper: {method: sph, material: dust, alpha: 0, beta: 0, variable_h: false,"
+              " shape: {box: {min: [0, 0.1], max: [0.2, 0.2]}}, spacing: 0.01, p: 0, velocity: [1, 0]}\n"
+              "interactions:\n  - {model: continuum, sets: [lower, upper]}\n"
+              "boundaries:\n  - {symmetry: {point: [0, 0], normal: [0, 1]}}\n",
+              &steps, &rebuilds, &rmin, &rmax);
+  fprintf(stderr, "lists cover the support: %lld steps, %lld rebuilds, radii %.3g .. %.3g m\n", (long long)steps,
+          (long long)rebuilds, rmin, rmax);
+  ck_assert_int_lt(rebuilds, steps);
+  ck_assert_double_gt(rmax / rmin, 1.5);
+}
+END_TEST
+
 int main(void)
 {
   Suite *s = suite_create("sim");
@@ -231,6 +333,7 @@ int main(void)
   tcase_add_test(tc, test_fix_and_velocity_bcs);
   tcase_add_test(tc, test_periodic_and_symmetry_rest);
   tcase_add_test(tc, test_symmetry_equals_full);
+  tcase_add_test(tc, test_lists_cover_support);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
