@@ -7,15 +7,17 @@ the coarse DOB 3 cm tlpd and SPH-soil scenes (examples/buried_charge.yaml,
 examples/buried_charge_sph.yaml, 0.5 ms).
 
     /usr/bin/python3 validation/buried_charge/fine.py --full [--build build] [--outdir /tmp/bc_fine]
-        [--threads 2] [--reuse] [--fine-sph OUT.h5] [--fine-sph-dob8 OUT.h5] [--fine-tlpd OUT.h5]
-        [--png F] [--csv F]
+        [--threads 2] [--reuse] [--fine-sph OUT.h5] [--fine-sph-dob8 OUT.h5[,RESTART.h5]]
+        [--fine-tlpd OUT.h5] [--prior-csv CSV] [--png F] [--csv F]
 
 Without --full (and without --fine-sph) it only says so and exits 0: `make validate` (run_all.py
 --full) runs it, the quick validation does not.
 
 Runs what is missing (each fine SPH scene: about 40 min on 2 cores; the fine tlpd scene is never run
 here: its step collapses at 0.03 ms, README "Performance of the fine scene"), or reads the outputs
-given (--fine-sph, --fine-sph-dob8, --fine-tlpd; an unfinished run's OUT.h5.partial is read up to its last frame).
+given (--fine-sph, --fine-sph-dob8, --fine-tlpd; an unfinished run's OUT.h5.partial is read up to its last frame;
+"A,B" reads a run A and its restart B from A's checkpoint as one curve), or takes a fine SPH-soil curve
+from an earlier CSV of this script (--prior-csv: the outputs are 1.5 GB each and are not kept).
 Bubble height and width: tools/bubble.py (all soil above the surface, and the coherent dome,
 --min-nbrs 3). No measured reference: Bergeron, Walker & Coffey 1998 (000 Fig. 18) is not in the
 sources (README). Prints the curves and, for the runs it made, wall time, CPU time and
@@ -49,6 +51,30 @@ def ensure(exe, scene, out, threads, reuse):
     return (out if os.path.exists(out) else out + ".partial"), perf
 
 
+def curve_chain(path):
+    """check.curve of one output, or of a run and its restarts given as "A,B,...": each later file
+    (a run restarted from the checkpoint of the one before, `ejecta run --restart`) supplies the
+    frames from its first time on. Steps of the last file, largest |balance| / E0 of all."""
+    rows, n, steps, bal = None, None, 0, 0.0
+    for p in path.split(","):
+        r, n1, s1, b1 = check.curve(p)
+        rows = r if rows is None else np.vstack([rows[rows[:, 0] < r[0, 0] - 1e-9], r])
+        n = n or n1
+        steps = s1
+        bal = max(bal, b1) if np.isfinite(b1) else bal
+    return rows, n, steps, bal
+
+
+def prior_curves(csv_path):
+    """Curves of an earlier fine.py CSV (label -> rows t, height, width, coherent height, width)."""
+    out = {}
+    with open(csv_path, newline="") as f:
+        for r in csv.DictReader(f):
+            out.setdefault(r["run"], []).append([float(r[k]) for k in ("t_ms", "height_mm", "width_mm",
+                                                                        "coherent_height_mm", "coherent_width_mm")])
+    return {k: np.array(v) for k, v in out.items()}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
@@ -58,10 +84,13 @@ def main():
     ap.add_argument("--fine-sph", default=None, help="output of examples/buried_charge_sph_fine.yaml to read")
     ap.add_argument("--fine-sph-dob8", default=None, help="output of examples/buried_charge_sph_fine_dob8.yaml to read")
     ap.add_argument("--fine-tlpd", default=None, help="output of examples/buried_charge_fine.yaml to read")
+    ap.add_argument("--prior-csv", default=None,
+                    help="take the fine SPH-soil curves not given nor run from this earlier CSV of fine.py")
     ap.add_argument("--png", default=os.path.join(HERE, "buried_charge_fine.png"))
     ap.add_argument("--csv", default=os.path.join(HERE, "buried_charge_fine.csv"))
     ap.add_argument("--full", action="store_true", help="run the fine SPH-soil scenes not given (about 40 min each on 2 cores)")
     a = ap.parse_args()
+    prior = prior_curves(a.prior_csv) if a.prior_csv else {}
     if not a.full and not (a.fine_sph or a.fine_sph_dob8):
         print("buried_charge/fine.py: the fine scenes need --full (make validate); skipped")
         return 0
@@ -78,6 +107,8 @@ def main():
                                         a.fine_sph_dob8, "C2-")):
         if given:
             runs.append((label, given, None, style))
+        elif label in prior:
+            runs.append((label, None, None, style))
         elif a.full:
             p, perf = ensure(exe, scene, os.path.join(a.outdir, scene[:-5] + ".h5"), a.threads, a.reuse)
             runs.append((label, p, perf, style))
@@ -92,14 +123,20 @@ def main():
     table = []
     fine_end = []
     for label, path, perf, style in runs:
-        rows, n, steps, bal = check.curve(path)
+        if path is None:
+            rows = prior[label]
+            print(f"{label}: the curve of {a.prior_csv} (an earlier run, not read again)")
+        else:
+            rows, n, steps, bal = curve_chain(path)
         if label.startswith("SPH soil, fine"):
             fine_end.append((label, rows[-1, 0]))
-        ntot = sum(n.values())
         ax[0].plot(rows[:, 0], rows[:, 1], style, marker="o", ms=3, label=f"{label}: all soil")
         ax[0].plot(rows[:, 0], rows[:, 3], style, marker="x", ms=4, alpha=0.6, label=f"{label}: coherent dome")
         ax[1].plot(rows[:, 0], rows[:, 2], style, marker="o", ms=3, label=label)
-        print(f"{label}: {path}\n  {ntot} particles, {steps} steps to {rows[-1, 0]:.3f} ms, max |balance| / E0 {bal:.2e}")
+        if path is not None:
+            ntot = sum(n.values())
+            print(f"{label}: {path}\n  {ntot} particles, {steps} steps to {rows[-1, 0]:.3f} ms, "
+                  f"max |balance| / E0 {bal:.2e}")
         if perf:
             rate = ntot * steps / perf["cpu"] if perf["cpu"] > 0 else float("nan")
             print(f"  wall {perf['wall']:.0f} s, CPU {perf['cpu']:.0f} s ({a.threads} threads): "
