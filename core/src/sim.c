@@ -767,6 +767,20 @@ static void ej_skin_radii(ej_real *r, ej_idx n, ej_real skin)
   for (ej_idx i = 0; i < n; ++i) r[i] *= f;
 }
 
+/* The largest build radius of the sets that s has a two-set interaction with (0 if none). */
+static ej_real ej_partner_rmax(const ej_sim *sim, const ej_set *s)
+{
+  ej_real r = 0;
+  for (int k = 0; k < sim->n_inter; ++k) {
+    const ej_inter *in = &sim->inter[k];
+    if (!in->b || (in->a != s && in->b != s)) continue;
+    const ej_set *o = in->a == s ? in->b : in->a;
+    const ej_real m = ej_set_rmax(o, o->fields[o->f_rb].data);
+    r = m > r ? m : r;
+  }
+  return r;
+}
+
 /* Ghosts and lists from x_build / r_build (shared by a rebuild and a restart). */
 static ej_err ej_lists_from_build(ej_sim *sim)
 {
@@ -798,7 +812,10 @@ static ej_err ej_lists_from_build(ej_sim *sim)
     }
     if (s->nbr_config != EJ_NBR_CURRENT) continue;
     ej_real rmax = ej_set_rmax(s, s->fields[s->f_rb].data);
-    EJ_TRY(ej_ghosts_build(sim, s, s->f_xb, rmax * (1 + skin)));
+    /* the ghosts are also the candidates of the rows of s's interaction partners, whose reach
+     * (1 + skin) max(R_i, R_j) may be the partner's larger radius */
+    const ej_real reach = ej_partner_rmax(sim, s);
+    EJ_TRY(ej_ghosts_build(sim, s, s->f_xb, (rmax > reach ? rmax : reach) * (1 + skin)));
     ej_real *xs, *rs;
     EJ_TRY(ej_build_points(sim, s, s->f_xb, &xs, &rs));
     /* per-particle skin (docs/core.md "Neighbours, ghosts, rebuilds"): pair listed iff
