@@ -71,13 +71,21 @@ def run(exe, text, path_yaml, out, threads, reuse):
     return perf
 
 
-def curve(path, soil="soil"):
+def surface(path, soil="soil"):
+    """(z_s, dx): the soil's initial surface height and its spacing there, from the first frame."""
+    with h5py.File(path, "r") as f:
+        x_init = f["frames"][bubble.frames(f)[0][0]][soil]["x"][:]
+    z_s = float(x_init[:, 2].max())
+    top = x_init[x_init[:, 2] > z_s - 1e-9 - 0.1 * (x_init[:, 2].max() - x_init[:, 2].min())]
+    return z_s, bubble.spacing(top)
+
+
+def curve(path, soil="soil", ref=None):
+    """Bubble curve of one output; ref = (z_s, dx) of the initial surface, surface(path) unless
+    given (a restarted run's output starts later: pass the original run's)."""
+    z_s, dx = ref if ref is not None else surface(path, soil)
     with h5py.File(path, "r") as f:
         fr = bubble.frames(f)
-        x_init = f["frames"][fr[0][0]][soil]["x"][:]
-        z_s = float(x_init[:, 2].max())
-        top = x_init[x_init[:, 2] > z_s - 1e-9 - 0.1 * (x_init[:, 2].max() - x_init[:, 2].min())]
-        dx = bubble.spacing(top)
         rows = []
         for k, t in fr:
             xs = f["frames"][k][soil]["x"][:]

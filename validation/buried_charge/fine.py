@@ -56,8 +56,9 @@ def curve_chain(path):
     (a run restarted from the checkpoint of the one before, `ejecta run --restart`) supplies the
     frames from its first time on. Steps of the last file, largest |balance| / E0 of all."""
     rows, n, steps, bal = None, None, 0, 0.0
+    ref = check.surface(path.split(",")[0])  # a restart measures from the first run's surface
     for p in path.split(","):
-        r, n1, s1, b1 = check.curve(p)
+        r, n1, s1, b1 = check.curve(p, ref=ref)
         rows = r if rows is None else np.vstack([rows[rows[:, 0] < r[0, 0] - 1e-9], r])
         n = n or n1
         steps = s1
