@@ -234,7 +234,8 @@ typedef struct ej_scene {
   char **output_fields;
   ej_loc *output_field_locs;
   /* neighbours */
-  ej_real skin; /* Verlet skin as a fraction of the search radius (default 0.1) */
+  ej_real skin; /* Verlet skin as a fraction of each particle's search radius (default 0.15) */
+  ej_real ghost_reach; /* m: smallest ghost-layer thickness (neighbours.ghost_reach) */
   ej_real gravity[3];
   int n_materials;
   ej_scene_material *materials;

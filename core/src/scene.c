@@ -20,7 +20,7 @@ typedef struct ej_time_cfg {
 } ej_time_cfg;
 
 typedef struct ej_neigh_cfg {
-  ej_real skin;
+  ej_real skin, ghost_reach;
 } ej_neigh_cfg;
 
 typedef struct ej_top_cfg {
@@ -51,6 +51,11 @@ static const ej_param ej_neigh_params[] = {
     EJ_PARAM_REAL(ej_neigh_cfg, skin, "1", 0.15, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Verlet skin as a fraction of each particle's search radius: lists hold the pairs closer than "
                   "(1 + skin) max(R_i, R_j) at the build."),
+    EJ_PARAM_REAL(ej_neigh_cfg, ghost_reach, "m", 0, 0, 0, EJ_PF_HAS_MIN,
+                  "Smallest thickness of every set's layer of mirror and periodic ghosts. A set with fixed families "
+                  "(tlpd, rkpm lagrangian) makes its ghosts once, within its own largest radius, but they are also "
+                  "the candidates of its interaction partners' rows: give here the largest search radius a partner "
+                  "will reach (sph: 2 h_max h_factor times its spacing) when the two meet at a symmetry plane."),
     {0}};
 
 static const ej_param ej_top_params[] = {
@@ -736,6 +741,7 @@ static ej_err ej_scene_parse(ej_loader *L)
                                            : "must be smaller than dt_max");
   }
   sc->skin = top.neighbours.skin;
+  sc->ghost_reach = top.neighbours.ghost_reach;
 
   EJ_TRY(ej_parse_output(L, ej_node_get(root, "output")));
   const ej_node *g = ej_node_get(root, "gravity");
