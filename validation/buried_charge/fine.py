@@ -13,7 +13,7 @@ examples/buried_charge_sph.yaml, 0.5 ms).
 Without --full (and without --fine-sph) it only says so and exits 0: `make validate` (run_all.py
 --full) runs it, the quick validation does not.
 
-Runs what is missing (each fine SPH scene: about 40 min on 2 cores; the fine tlpd scene is never run
+Runs what is missing (the fine SPH scenes: about 40 min at DOB 3 cm, 80 min at 8 cm, on 2 cores; the fine tlpd scene is never run
 here: its step collapses at 0.03 ms, README "Performance of the fine scene"), or reads the outputs
 given (--fine-sph, --fine-sph-dob8, --fine-tlpd; an unfinished run's OUT.h5.partial is read up to its last frame;
 "A,B" reads a run A and its restart B from A's checkpoint as one curve), or takes a fine SPH-soil curve
@@ -89,7 +89,7 @@ def main():
                     help="take the fine SPH-soil curves not given nor run from this earlier CSV of fine.py")
     ap.add_argument("--png", default=os.path.join(HERE, "buried_charge_fine.png"))
     ap.add_argument("--csv", default=os.path.join(HERE, "buried_charge_fine.csv"))
-    ap.add_argument("--full", action="store_true", help="run the fine SPH-soil scenes not given (about 40 min each on 2 cores)")
+    ap.add_argument("--full", action="store_true", help="run the fine SPH-soil scenes not given (about 40 and 80 min on 2 cores)")
     a = ap.parse_args()
     prior = prior_curves(a.prior_csv) if a.prior_csv else {}
     if not a.full and not (a.fine_sph or a.fine_sph_dob8):
