@@ -13,11 +13,12 @@ examples/buried_charge_sph.yaml, 0.5 ms).
 Without --full (and without --fine-sph) it only says so and exits 0: `make validate` (run_all.py
 --full) runs it, the quick validation does not.
 
-Runs what is missing (the fine SPH scenes: about 40 min at DOB 3 cm, 80 min at 8 cm, on 2 cores; the fine tlpd scene is never run
-here: its step collapses at 0.03 ms, README "Performance of the fine scene"), or reads the outputs
-given (--fine-sph, --fine-sph-dob8, --fine-tlpd; an unfinished run's OUT.h5.partial is read up to its last frame;
-"A,B" reads a run A and its restart B from A's checkpoint as one curve), or takes a fine SPH-soil curve
-from an earlier CSV of this script (--prior-csv: the outputs are 1.5 GB each and are not kept).
+Runs what is missing (the fine SPH scenes: about 40 min at DOB 3 cm, 80 min at 8 cm, on 2 cores;
+the fine tlpd scene is never run here: its step collapses at 0.03 ms, README "Performance of the
+tlpd fine scene"), or reads the outputs given (--fine-sph, --fine-sph-dob8, --fine-tlpd; an
+unfinished run's OUT.h5.partial is read up to its last frame; "A,B" reads a run A and its restart
+B from A's checkpoint as one curve), or takes a fine SPH-soil curve from an earlier CSV of this
+script (--prior-csv: the outputs are 1.5 GB each and are not kept).
 Bubble height and width: tools/bubble.py (all soil above the surface, and the coherent dome,
 --min-nbrs 3). No measured reference: Bergeron, Walker & Coffey 1998 (000 Fig. 18) is not in the
 sources (README). Prints the curves and, for the runs it made, wall time, CPU time and
