@@ -666,6 +666,8 @@ static ej_err ej_ghost_push(ej_sim *sim, ej_set *s, ej_idx src, const ej_xform *
 static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, int f_pos, ej_real cutoff)
 {
   const ej_scene *sc = sim->scene;
+  /* neighbours.ghost_reach: the smallest layer of every set (its partners' rows may need more) */
+  if (cutoff < sc->ghost_reach) cutoff = sc->ghost_reach;
   s->n_ghost = 0;
   enum { EJ_MEMO_K = 4 };
   int16_t memo[EJ_MAX_XFORMS + 1][2][EJ_MEMO_K]; /* [source transform][side][period - 1] */
@@ -792,8 +794,7 @@ static ej_err ej_lists_from_build(ej_sim *sim)
        * state stored by the method stays aligned with the CSR entries). Mirror and periodic
        * ghosts are made once too, from the reference positions (x_build = x0 at t = 0). */
       const ej_real rmax = ej_set_rmax(s, s->fields[s->f_rb].data);
-      /* neighbours.ghost_reach: the partners' rows need images beyond the family's horizon */
-      EJ_TRY(ej_ghosts_build(sim, s, s->f_x0, rmax > sim->scene->ghost_reach ? rmax : sim->scene->ghost_reach));
+      EJ_TRY(ej_ghosts_build(sim, s, s->f_x0, rmax));
       ej_real *xs, *rs;
       EJ_TRY(ej_build_points(sim, s, s->f_x0, &xs, &rs));
       ej_err rc = ej_nbrlist_build(s->list, s->dim, xs, rs, s->n, xs, rs, s->n + s->n_ghost, 0, true);
@@ -815,8 +816,8 @@ static ej_err ej_lists_from_build(ej_sim *sim)
     ej_real rmax = ej_set_rmax(s, s->fields[s->f_rb].data);
     /* the ghosts are also the candidates of the rows of s's interaction partners, whose reach
      * (1 + skin) max(R_i, R_j) may be the partner's larger radius */
-    const ej_real reach = ej_partner_rmax(sim, s), layer = (rmax > reach ? rmax : reach) * (1 + skin);
-    EJ_TRY(ej_ghosts_build(sim, s, s->f_xb, layer > sim->scene->ghost_reach ? layer : sim->scene->ghost_reach));
+    const ej_real reach = ej_partner_rmax(sim, s);
+    EJ_TRY(ej_ghosts_build(sim, s, s->f_xb, (rmax > reach ? rmax : reach) * (1 + skin)));
     ej_real *xs, *rs;
     EJ_TRY(ej_build_points(sim, s, s->f_xb, &xs, &rs));
     /* per-particle skin (docs/core.md "Neighbours, ghosts, rebuilds"): pair listed iff
