@@ -88,8 +88,11 @@ static const ej_param pd_sph_params[] = {
                   "dynamically unstable like the difference form)."),
     EJ_PARAM_ENUM(pd_sph_config, pair_stress, pd_sph_pair_stress, "owned",
                   "form pairwise: owned (the fluid owns the interface: pair stress 2 sigma_fluid and the fluid's "
-                  "continuity counts the solid's relative motion twice; variational, passes the impedance test), "
-                  "fluid (sigma_fluid once) or both (sigma_fluid + sigma_solid); the last two fail it."),
+                  "continuity counts the solid's relative motion twice; variational, passes the impedance test, but "
+                  "it also counts the solid's own dilatation twice where the fluid's kernel reaches several solid "
+                  "layers: not for an expanding gas), both (sigma_fluid + sigma_solid, the symmetric SPH form with a "
+                  "consistent continuity: blasts, the buried-charge scenes) or fluid (sigma_fluid once); the last two "
+                  "fail the impedance test."),
     EJ_PARAM_ENUM(pd_sph_config, pair_weight, pd_sph_pair_weights, "bond",
                   "pair_stress owned: the pair gradient. bond (issue 8, fourth pass): the solid particle's PD bond "
                   "weight w beta K^-1 X over its horizon, scaled per fluid particle so that it completes the fluid's "
