@@ -14,15 +14,15 @@ Without --full (and without --fine-sph) it only says so and exits 0: `make valid
 --full) runs it, the quick validation does not.
 
 Runs what is missing (the fine SPH scenes: about 40 min at DOB 3 cm, 80 min at 8 cm, on 2 cores;
-the fine tlpd scene is never run here: its step collapses at 0.03 ms, README "Performance of the
-tlpd fine scene"), or reads the outputs given (--fine-sph, --fine-sph-dob8, --fine-tlpd; an
+the fine tlpd scene, since it uses pd_sph's `pair_stress: both`: about 60 min, README "Sixth
+pass"), or reads the outputs given (--fine-sph, --fine-sph-dob8, --fine-tlpd; an
 unfinished run's OUT.h5.partial is read up to its last frame; "A,B" reads a run A and its restart
 B from A's checkpoint as one curve), or takes a fine SPH-soil curve from an earlier CSV of this
 script (--prior-csv: the outputs are 1.5 GB each and are not kept).
 Bubble height and width: tools/bubble.py (all soil above the surface, and the coherent dome,
 --min-nbrs 3). No measured reference: Bergeron, Walker & Coffey 1998 (000 Fig. 18) is not in the
 sources (README). Prints the curves and, for the runs it made, wall time, CPU time and
-particle-steps per second per core. Exit status 1 if a fine SPH-soil run did not reach 0.8 ms.
+particle-steps per second per core. Exit status 1 if a fine run did not reach 0.8 ms.
 """
 import argparse
 import csv
@@ -87,13 +87,14 @@ def main():
     ap.add_argument("--fine-sph-dob8", default=None, help="output of examples/buried_charge_sph_fine_dob8.yaml to read")
     ap.add_argument("--fine-tlpd", default=None, help="output of examples/buried_charge_fine.yaml to read")
     ap.add_argument("--prior-csv", default=None,
-                    help="take the fine SPH-soil curves not given nor run from this earlier CSV of fine.py")
+                    help="take the fine curves not given nor run from this earlier CSV of fine.py")
     ap.add_argument("--png", default=os.path.join(HERE, "buried_charge_fine.png"))
     ap.add_argument("--csv", default=os.path.join(HERE, "buried_charge_fine.csv"))
-    ap.add_argument("--full", action="store_true", help="run the fine SPH-soil scenes not given (about 40 and 80 min on 2 cores)")
+    ap.add_argument("--full", action="store_true",
+                    help="run the fine scenes not given (SPH soil about 40 and 80 min, tlpd about 60 min on 2 cores)")
     a = ap.parse_args()
     prior = prior_curves(a.prior_csv) if a.prior_csv else {}
-    if not a.full and not (a.fine_sph or a.fine_sph_dob8):
+    if not a.full and not (a.fine_sph or a.fine_sph_dob8 or a.fine_tlpd):
         print("buried_charge/fine.py: the fine scenes need --full (make validate); skipped")
         return 0
     os.makedirs(a.outdir, exist_ok=True)
@@ -106,7 +107,8 @@ def main():
         runs.append((label, p, perf, style))
     for label, scene, given, style in (("SPH soil, fine (4 mm)", "buried_charge_sph_fine.yaml", a.fine_sph, "C1-"),
                                        ("SPH soil, fine (4 mm), DOB 8 cm", "buried_charge_sph_fine_dob8.yaml",
-                                        a.fine_sph_dob8, "C2-")):
+                                        a.fine_sph_dob8, "C2-"),
+                                       ("tlpd, fine (4 mm)", "buried_charge_fine.yaml", a.fine_tlpd, "C0-")):
         if given:
             runs.append((label, given, None, style))
         elif label in prior:
@@ -114,8 +116,6 @@ def main():
         elif a.full:
             p, perf = ensure(exe, scene, os.path.join(a.outdir, scene[:-5] + ".h5"), a.threads, a.reuse)
             runs.append((label, p, perf, style))
-    if a.fine_tlpd:
-        runs.append(("tlpd, fine (4 mm)", a.fine_tlpd, None, "C0-"))
 
     import matplotlib
     matplotlib.use("Agg")
@@ -130,7 +130,7 @@ def main():
             print(f"{label}: the curve of {a.prior_csv} (an earlier run, not read again)")
         else:
             rows, n, steps, bal = curve_chain(path)
-        if label.startswith("SPH soil, fine"):
+        if "fine" in label:
             fine_end.append((label, rows[-1, 0]))
         ax[0].plot(rows[:, 0], rows[:, 1], style, marker="o", ms=3, label=f"{label}: all soil")
         ax[0].plot(rows[:, 0], rows[:, 3], style, marker="x", ms=4, alpha=0.6, label=f"{label}: coherent dome")

@@ -145,7 +145,8 @@ static const ej_param sph_params[] = {
     EJ_PARAM_REAL(sph_config, rho_min, "1", 1e-6, 0.0, 1.0,
                   EJ_PF_HAS_MIN | EJ_PF_HAS_MAX | EJ_PF_MAX_OPEN | EJ_PF_EXPERT,
                   "Density floor as a fraction of each particle's initial density m/vol0; guards "
-                  "the EOS and h against expansion into vacuum."),
+                  "the EOS and h against expansion into vacuum. Keep it at or above h_max^-dim: below that a "
+                  "floored particle's volume m/rho outgrows its kernel (README)."),
     EJ_PARAM_REAL(sph_config, drho_max, "1", 0.5, 0.0, 0.0,
                   EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN | EJ_PF_EXPERT,
                   "Bound on the relative density change per step before the CFL factor: dt <= drho_max "
