@@ -2,7 +2,7 @@
 """Buried 100 g C4 charge, FINE scenes (issue "coupled blast"): soil-bubble height and width
 against time to 0.8 ms for the fine SPH-soil scenes at DOB 3 cm and 8 cm
 (examples/buried_charge_sph_fine.yaml, examples/buried_charge_sph_fine_dob8.yaml, 1.13 M particles
-each) and, when given, the fine tlpd scene (examples/buried_charge_fine.yaml), in one figure with
+each) and the fine tlpd scene (examples/buried_charge_fine.yaml), in one figure with
 the coarse DOB 3 cm tlpd and SPH-soil scenes (examples/buried_charge.yaml,
 examples/buried_charge_sph.yaml, 0.5 ms).
 
@@ -10,12 +10,12 @@ examples/buried_charge_sph.yaml, 0.5 ms).
         [--threads 2] [--reuse] [--fine-sph OUT.h5] [--fine-sph-dob8 OUT.h5[,RESTART.h5]]
         [--fine-tlpd OUT.h5] [--prior-csv CSV] [--png F] [--csv F]
 
-Without --full (and without --fine-sph) it only says so and exits 0: `make validate` (run_all.py
+Without --full (and without any --fine-* output) it only says so and exits 0: `make validate` (run_all.py
 --full) runs it, the quick validation does not.
 
 Runs what is missing (the fine SPH scenes: about 40 min at DOB 3 cm, 80 min at 8 cm, on 2 cores;
-the fine tlpd scene, since it uses pd_sph's `pair_stress: both`: about 60 min, README "Sixth
-pass"), or reads the outputs given (--fine-sph, --fine-sph-dob8, --fine-tlpd; an
+the fine tlpd scene, since the sixth pass of the README: about 100 min (measured 96 min on
+2 threads)), or reads the outputs given (--fine-sph, --fine-sph-dob8, --fine-tlpd; an
 unfinished run's OUT.h5.partial is read up to its last frame; "A,B" reads a run A and its restart
 B from A's checkpoint as one curve), or takes a fine SPH-soil curve from an earlier CSV of this
 script (--prior-csv: the outputs are 1.5 GB each and are not kept).
@@ -91,7 +91,7 @@ def main():
     ap.add_argument("--png", default=os.path.join(HERE, "buried_charge_fine.png"))
     ap.add_argument("--csv", default=os.path.join(HERE, "buried_charge_fine.csv"))
     ap.add_argument("--full", action="store_true",
-                    help="run the fine scenes not given (SPH soil about 40 and 80 min, tlpd about 60 min on 2 cores)")
+                    help="run the fine scenes not given (SPH soil about 40 and 80 min, tlpd about 100 min on 2 cores)")
     a = ap.parse_args()
     prior = prior_curves(a.prior_csv) if a.prior_csv else {}
     if not a.full and not (a.fine_sph or a.fine_sph_dob8 or a.fine_tlpd):
