@@ -1,24 +1,25 @@
 #!/usr/bin/python3
 """Buried 100 g C4 charge, FINE scenes (issue "coupled blast"): soil-bubble height and width
-against time to 0.8 ms for the fine SPH-soil scenes at DOB 3 cm and 8 cm
-(examples/buried_charge_sph_fine.yaml, examples/buried_charge_sph_fine_dob8.yaml, 1.13 M particles
-each) and the fine tlpd scene (examples/buried_charge_fine.yaml), in one figure with
-the coarse DOB 3 cm tlpd and SPH-soil scenes (examples/buried_charge.yaml,
-examples/buried_charge_sph.yaml, 0.5 ms).
+against time to 0.8 ms for the fine tlpd scenes at DOB 3 cm and 8 cm
+(examples/buried_charge_fine.yaml, examples/buried_charge_fine_dob8.yaml) and the fine SPH-soil
+scenes at DOB 3 cm and 8 cm (examples/buried_charge_sph_fine.yaml,
+examples/buried_charge_sph_fine_dob8.yaml), 1.13 M particles each, in one figure (one row per
+depth of burial) with the coarse tlpd and SPH-soil scenes (examples/buried_charge.yaml,
+examples/buried_charge_sph.yaml, examples/buried_charge_dob8.yaml, 0.5 ms).
 
     /usr/bin/python3 validation/buried_charge/fine.py --full [--build build] [--outdir /tmp/bc_fine]
         [--threads 2] [--reuse] [--fine-sph OUT.h5] [--fine-sph-dob8 OUT.h5[,RESTART.h5]]
-        [--fine-tlpd OUT.h5] [--prior-csv CSV] [--png F] [--csv F]
+        [--fine-tlpd OUT.h5] [--fine-tlpd-dob8 OUT.h5] [--prior-csv CSV] [--png F] [--csv F]
 
 Without --full (and without any --fine-* output) it only says so and exits 0: `make validate` (run_all.py
 --full) runs it, the quick validation does not.
 
-Runs what is missing (the fine SPH scenes: about 40 min at DOB 3 cm, 80 min at 8 cm, on 2 cores;
-the fine tlpd scene, since the sixth pass of the README: about 100 min (measured 96 min on
-2 threads)), or reads the outputs given (--fine-sph, --fine-sph-dob8, --fine-tlpd; an
-unfinished run's OUT.h5.partial is read up to its last frame; "A,B" reads a run A and its restart
-B from A's checkpoint as one curve), or takes a fine SPH-soil curve from an earlier CSV of this
-script (--prior-csv: the outputs are 1.5 GB each and are not kept).
+Runs what is missing (on 2 cores: the fine SPH scenes about 40 min at DOB 3 cm and 80 min at
+8 cm; the fine tlpd scenes, since the sixth pass of the README, 96 min at DOB 3 cm and at
+most 116 min at 8 cm, measured on 2 threads), or reads the outputs given (--fine-sph, --fine-sph-dob8,
+--fine-tlpd, --fine-tlpd-dob8; an unfinished run's OUT.h5.partial is read up to its last frame;
+"A,B" reads a run A and its restart B from A's checkpoint as one curve), or takes a fine curve
+from an earlier CSV of this script (--prior-csv: the outputs are 2-4 GB each and are not kept).
 Bubble height and width: tools/bubble.py (all soil above the surface, and the coherent dome,
 --min-nbrs 3). No measured reference: Bergeron, Walker & Coffey 1998 (000 Fig. 18) is not in the
 sources (README). Prints the curves and, for the runs it made, wall time, CPU time and
@@ -86,29 +87,33 @@ def main():
     ap.add_argument("--fine-sph", default=None, help="output of examples/buried_charge_sph_fine.yaml to read")
     ap.add_argument("--fine-sph-dob8", default=None, help="output of examples/buried_charge_sph_fine_dob8.yaml to read")
     ap.add_argument("--fine-tlpd", default=None, help="output of examples/buried_charge_fine.yaml to read")
+    ap.add_argument("--fine-tlpd-dob8", default=None, help="output of examples/buried_charge_fine_dob8.yaml to read")
     ap.add_argument("--prior-csv", default=None,
                     help="take the fine curves not given nor run from this earlier CSV of fine.py")
     ap.add_argument("--png", default=os.path.join(HERE, "buried_charge_fine.png"))
     ap.add_argument("--csv", default=os.path.join(HERE, "buried_charge_fine.csv"))
     ap.add_argument("--full", action="store_true",
-                    help="run the fine scenes not given (SPH soil about 40 and 80 min, tlpd about 100 min on 2 cores)")
+                    help="run the fine scenes not given (on 2 cores: SPH soil about 40 and 80 min, tlpd 96 and at most 116 min)")
     a = ap.parse_args()
     prior = prior_curves(a.prior_csv) if a.prior_csv else {}
-    if not a.full and not (a.fine_sph or a.fine_sph_dob8 or a.fine_tlpd):
+    if not a.full and not (a.fine_sph or a.fine_sph_dob8 or a.fine_tlpd or a.fine_tlpd_dob8):
         print("buried_charge/fine.py: the fine scenes need --full (make validate); skipped")
         return 0
     os.makedirs(a.outdir, exist_ok=True)
     exe = os.path.join(a.build, "bin", "ejecta")
 
     runs = []  # (label, path, perf, style)
-    for label, scene, style in (("tlpd, coarse (12 mm)", "buried_charge.yaml", "C0--"),
-                                ("SPH soil, coarse (12 mm)", "buried_charge_sph.yaml", "C1--")):
+    for label, scene, style in (("tlpd, coarse (6 mm)", "buried_charge.yaml", "C0--"),
+                                ("SPH soil, coarse (6 mm)", "buried_charge_sph.yaml", "C1--"),
+                                ("tlpd, coarse (6 mm), DOB 8 cm", "buried_charge_dob8.yaml", "C0--")):
         p, perf = ensure(exe, scene, os.path.join(a.outdir, scene[:-5] + ".h5"), a.threads, a.reuse)
         runs.append((label, p, perf, style))
     for label, scene, given, style in (("SPH soil, fine (4 mm)", "buried_charge_sph_fine.yaml", a.fine_sph, "C1-"),
                                        ("SPH soil, fine (4 mm), DOB 8 cm", "buried_charge_sph_fine_dob8.yaml",
-                                        a.fine_sph_dob8, "C2-"),
-                                       ("tlpd, fine (4 mm)", "buried_charge_fine.yaml", a.fine_tlpd, "C0-")):
+                                        a.fine_sph_dob8, "C1-"),
+                                       ("tlpd, fine (4 mm)", "buried_charge_fine.yaml", a.fine_tlpd, "C0-"),
+                                       ("tlpd, fine (4 mm), DOB 8 cm", "buried_charge_fine_dob8.yaml",
+                                        a.fine_tlpd_dob8, "C0-")):
         if given:
             runs.append((label, given, None, style))
         elif label in prior:
@@ -121,7 +126,7 @@ def main():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, axs = plt.subplots(2, 2, figsize=(12, 8.4))
     table = []
     fine_end = []
     for label, path, perf, style in runs:
@@ -132,9 +137,11 @@ def main():
             rows, n, steps, bal = curve_chain(path)
         if "fine" in label:
             fine_end.append((label, rows[-1, 0]))
+        ax = axs[1 if "DOB 8 cm" in label else 0]
         ax[0].plot(rows[:, 0], rows[:, 1], style, marker="o", ms=3, label=f"{label}: all soil")
         ax[0].plot(rows[:, 0], rows[:, 3], style, marker="x", ms=4, alpha=0.6, label=f"{label}: coherent dome")
-        ax[1].plot(rows[:, 0], rows[:, 2], style, marker="o", ms=3, label=label)
+        ax[1].plot(rows[:, 0], rows[:, 2], style, marker="o", ms=3, label=f"{label}: all soil")
+        ax[1].plot(rows[:, 0], rows[:, 4], style, marker="x", ms=4, alpha=0.6, label=f"{label}: coherent dome")
         if path is not None:
             ntot = sum(n.values())
             print(f"{label}: {path}\n  {ntot} particles, {steps} steps to {rows[-1, 0]:.3f} ms, "
@@ -144,19 +151,19 @@ def main():
             print(f"  wall {perf['wall']:.0f} s, CPU {perf['cpu']:.0f} s ({a.threads} threads): "
                   f"{rate:.3g} particle-steps per CPU-second (set-up included), max RSS {perf['maxrss_mb']:.0f} MB"
                   + (f"; STOPPED: {perf['crash']}" if perf["crash"] else ""))
-        print("   t [ms]  height  width  coherent height [mm]")
+        print("   t [ms]  height  width  coherent height, width [mm]")
         for r in rows:
-            print(f"  {r[0]:7.3f} {r[1]:7.1f} {r[2]:7.1f} {r[3]:7.1f}")
+            print(f"  {r[0]:7.3f} {r[1]:7.1f} {r[2]:7.1f} {r[3]:7.1f} {r[4]:7.1f}")
             table.append((label, f"{r[0]:.4f}", f"{r[1]:.2f}", f"{r[2]:.2f}", f"{r[3]:.2f}", f"{r[4]:.2f}"))
-    ax[0].set_ylabel("bubble height above the surface (mm)")
-    ax[1].set_ylabel("bubble width (mm)")
-    for q in ax:
-        q.set_xlabel("t (ms)")
-        q.grid(alpha=0.3)
-    ax[0].legend(fontsize=7)
-    ax[1].legend(fontsize=7)
-    fig.suptitle("Buried 100 g C4 (DOB 3 cm unless marked): fine and coarse scenes (no measured reference available)",
-                 fontsize=10)
+    for ax, dob in zip(axs, ("3 cm", "8 cm")):
+        ax[0].set_ylabel(f"DOB {dob}: bubble height above the surface (mm)")
+        ax[1].set_ylabel(f"DOB {dob}: bubble width (mm)")
+        for q in ax:
+            q.set_xlabel("t (ms)")
+            q.grid(alpha=0.3)
+            q.legend(fontsize=6)
+    fig.suptitle("Buried 100 g C4, DOB 3 cm (top) and 8 cm (bottom): fine and coarse scenes "
+                 "(no measured reference available)", fontsize=10)
     fig.tight_layout()
     fig.savefig(a.png, dpi=110)
     with open(a.csv, "w", newline="") as f:
