@@ -10,7 +10,7 @@ sqrt(E/rho) = 240 m/s) has travelled 0.12 m, inside the refined box (0.16 m). Th
 d = 6 mm and r = 1 (the charge as fine as the sand near it, as in the fine scenes; since
 2026-11-29, README "Seventh pass"). Default levels d = 7.2, 6, 4.8 mm at r = 1; --full runs
 d = 7.2, 6, 4.8, 4 mm at r = 1 and the former example's family r = 1/2 at d = 12, 9, 7.2, 6,
-4.8 mm (charge 6 to 2.4 mm), whose dome does not hold. Bubble height: tools/bubble.py
+4.8 mm (charge 6 to 2.4 mm), whose coherent dome is gone by 0.3 ms. Bubble height: tools/bubble.py
 (height on the charge axis of the soil above the initial surface, all soil and the coherent dome).
 
 Reference: Bergeron, Walker & Coffey 1998 (DRES report; the bubble curves used by 000 Fig. 18)
