@@ -107,6 +107,17 @@ def curve(path, soil="soil", ref=None):
     return np.array(rows), n, steps, e
 
 
+def finish_figure(fig, axes, title, png):
+    """Time axis, grid and legend on every panel of a bubble-against-time figure; title; save."""
+    for q in axes:
+        q.set_xlabel("t (ms)")
+        q.grid(alpha=0.3)
+        q.legend(fontsize=6)
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(png, dpi=110)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
@@ -183,14 +194,8 @@ def main():
     ax[1].set_ylabel("coherent dome height (mm)")
     ax[1].set_title(">= 3 soil neighbours within 1.5 dx", fontsize=8)
     ax[2].set_ylabel("bubble width (mm)")
-    for q in ax:
-        q.set_xlabel("t (ms)")
-        q.grid(alpha=0.3)
-        q.legend(fontsize=6)
-    fig.suptitle("Buried 100 g C4, DOB 3 cm: soil bubble, charge / near-field sand spacing in the legend "
-                 "(no measured curve: Bergeron et al. 1998 not available)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(a.png, dpi=110)
+    finish_figure(fig, ax, "Buried 100 g C4, DOB 3 cm: soil bubble, charge / near-field sand spacing in the legend "
+                  "(no measured curve: Bergeron et al. 1998 not available)", a.png)
 
     ok, checked = True, 0
     for ratio in sorted({r["ratio"] for r in results if r["kind"] == "tlpd"}):

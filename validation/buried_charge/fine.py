@@ -35,7 +35,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, HERE)
-import check  # noqa: E402  (run(), curve())
+import check  # noqa: E402  (run(), curve(), finish_figure())
 
 
 def ensure(exe, scene, out, threads, reuse):
@@ -158,14 +158,8 @@ def main():
     for ax, dob in zip(axs, ("3 cm", "8 cm")):
         ax[0].set_ylabel(f"DOB {dob}: bubble height above the surface (mm)")
         ax[1].set_ylabel(f"DOB {dob}: bubble width (mm)")
-        for q in ax:
-            q.set_xlabel("t (ms)")
-            q.grid(alpha=0.3)
-            q.legend(fontsize=6)
-    fig.suptitle("Buried 100 g C4, DOB 3 cm (top) and 8 cm (bottom): fine and coarse scenes "
-                 "(no measured reference available)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(a.png, dpi=110)
+    check.finish_figure(fig, axs.ravel(), "Buried 100 g C4, DOB 3 cm (top) and 8 cm (bottom): fine and coarse "
+                        "scenes (no measured reference available)", a.png)
     with open(a.csv, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["run", "t_ms", "height_mm", "width_mm", "coherent_height_mm", "coherent_width_mm"])
