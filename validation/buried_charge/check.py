@@ -190,10 +190,14 @@ def main():
         ax[0].plot(r["rows"][:, 0], r["rows"][:, 1], ls, ms=3, label=lab)
         ax[1].plot(r["rows"][:, 0], r["rows"][:, 3], ls, ms=3, label=lab)
         ax[2].plot(r["rows"][:, 0], r["rows"][:, 2], ls, ms=3, label=lab)
+        if r["kind"] == "tlpd" and r["ratio"] == Fraction(1):  # coherent width: converges (README seventh pass)
+            ax[2].plot(r["rows"][:, 0], r["rows"][:, 4], ls[0] + "--", color=ax[2].lines[-1].get_color(), ms=3,
+                       alpha=0.5, mfc="none")
     ax[0].set_ylabel("bubble height, tools/bubble.py (mm)")
     ax[1].set_ylabel("coherent dome height (mm)")
     ax[1].set_title(">= 3 soil neighbours within 1.5 dx", fontsize=8)
     ax[2].set_ylabel("bubble width (mm)")
+    ax[2].set_title("open markers, dashed: coherent width (charge as fine as the sand)", fontsize=8)
     finish_figure(fig, ax, "Buried 100 g C4, DOB 3 cm: soil bubble, charge / near-field sand spacing in the legend "
                   "(no measured curve: Bergeron et al. 1998 not available)", a.png)
 
