@@ -48,8 +48,12 @@ def scaled_scene(src, sand_mm, charge_mm, out, reach=None, tlpd_opts=None):
         for k in tlpd_opts:
             t = re.sub(rf"\n    {k}: [^\n]*", "", t)
         t = t.replace("    method: tlpd\n", "    method: tlpd\n" + "".join(f"    {k}: {v}\n" for k, v in tlpd_opts.items()))
-    if reach is not None:
-        t = t.replace("decohesion_reach: 0}", f"decohesion_reach: {reach:g}}}")
+    if reach is not None and "model: pd_sph" in t:
+        # the pd_sph line: its own decohesion_reach (if any) dropped, `reach` appended
+        def set_reach(m):
+            return re.sub(r", decohesion_reach: [^,}]*", "", m.group(1)) + f", decohesion_reach: {reach:g}}}"
+        t, n = re.subn(r"(\{model: pd_sph,[^}\n]*)\}", set_reach, t)
+        assert n == 1, f"{src}: one pd_sph interaction expected"
     t = re.sub(r"output: \{file: [^,]+,", f"output: {{file: {out},", t)
     t, n1 = re.subn(r"\n    spacing: 6 mm\n", f"\n    spacing: {charge_mm:.6g} mm\n", t)  # the charge set
     t, n2 = re.subn(r"(\]}}, spacing: )6 mm}", rf"\g<1>{sand_mm:.6g} mm}}", t)  # the refined sand box
@@ -130,7 +134,7 @@ def main():
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--reuse", action="store_true", help="reuse existing outputs in --outdir")
     ap.add_argument("--decohesion-reach", type=float, default=None,
-                    help="pd_sph decohesion_reach for the tlpd runs (default: the example's, 0 = the former rule; "
+                    help="pd_sph decohesion_reach for the tlpd runs (default: the example's, pd_sph's 1; 0 = the former rule; "
                          "1 = contact, README third pass)")
     ap.add_argument("--tlpd", default="",
                     help="options of the tlpd soil set, e.g. 'contact=unbonded,inversion=point_failure' (issue 8)")
