@@ -183,6 +183,9 @@ typedef struct ej_scene_set {
   ej_lattice lattice;
   ej_real jitter;        /* fraction of the local spacing, uniform in [-j/2, j/2] per component */
   uint64_t seed;
+  bool has_origin;       /* lattice_origin given: the lattice passes through origin */
+  ej_real origin[3];
+  ej_real mass;          /* > 0: the particles' volumes are scaled to this total mass */
   int n_refine;
   ej_refine *refine;
   char *file;            /* CSV particle file (columns x,y,z[,vol][,...]) or NULL */

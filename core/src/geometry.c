@@ -539,7 +539,10 @@ static void ej_coarse_site(const ej_fill *f, const ej_real *lo, const ej_real x[
   const ej_real s = f->spacing;
   if (!ej_lattice_hcp(f)) {
     int64_t idx[3] = {0, 0, 0};
-    for (int d = 0; d < f->dim; ++d) idx[d] = (int64_t)fmax(0.0, floor((x[d] - lo[d]) / s));
+    for (int d = 0; d < f->dim; ++d) {
+      const double q = floor((x[d] - lo[d]) / s);
+      idx[d] = (int64_t)(f->origin ? q : fmax(0.0, q)); /* a lattice through origin extends both ways */
+    }
     ej_lattice_site(f, lo, s, idx[0], idx[1], idx[2], c);
     return;
   }
@@ -548,12 +551,12 @@ static void ej_coarse_site(const ej_fill *f, const ej_real *lo, const ej_real x[
   int64_t j0 = (int64_t)floor((x[1] - lo[1]) / py);
   ej_real best = INFINITY;
   for (int64_t k = k0 - 1; k <= k0 + 1; ++k) {
-    if (k < 0 || (f->dim < 3 && k != 0)) continue;
+    if ((k < 0 && !f->origin) || (f->dim < 3 && k != 0)) continue;
     for (int64_t j = j0 - 1; j <= j0 + 1; ++j) {
-      if (j < 0) continue;
+      if (j < 0 && !f->origin) continue;
       int64_t i0 = (int64_t)floor((x[0] - lo[0]) / s);
       for (int64_t i = i0 - 1; i <= i0 + 1; ++i) {
-        if (i < 0) continue;
+        if (i < 0 && !f->origin) continue;
         ej_real y[3];
         ej_lattice_site(f, lo, s, i, j, k, y);
         ej_real d2 = 0;
@@ -604,7 +607,7 @@ static ej_err ej_lattice_run(const ej_lattice_pass *L, const ej_real blo[3], con
     /* one index of slack each side covers the hcp row offsets; the point test does the rest */
     double a = floor((blo[k] - L->lo[k]) / step[k]) - 1, b = ceil((bhi[k] - L->lo[k]) / step[k]) + 1;
     if (!(b >= a) || !isfinite(a) || !isfinite(b)) return EJ_OK;
-    if (a < 0) a = 0;
+    if (a < 0 && !L->f->origin) a = 0; /* from the shape's lowest corner: no site below it */
     if (b - a > 4e9) b = a + 4e9; /* the total check below rejects it */
     i0[k] = (int64_t)a;
     i1[k] = (int64_t)b;
@@ -631,9 +634,13 @@ ej_err ej_shape_fill(const ej_shape *shape, const ej_fill *f, ej_points *out)
   EJ_ENSURE(f->spacing > 0, EJ_ERR_ARG, "spacing must be > 0");
   ej_real lo[3], hi[3];
   EJ_TRY(ej_shape_bounds(shape, lo, hi));
+  /* the anchor of every lattice of the fill: the shape's lowest corner, or the given origin (the
+   * enumeration below then runs over negative indices too) */
+  ej_real anchor[3] = {0, 0, 0};
+  for (int k = 0; k < 3; ++k) anchor[k] = f->origin && k < f->dim ? f->origin[k] : lo[k];
   ej_idx cap = 0;
   ej_err rc = EJ_OK;
-  ej_lattice_pass coarse = {shape, f, lo, f->spacing, -1};
+  ej_lattice_pass coarse = {shape, f, anchor, f->spacing, -1};
   EJ_TRY_GOTO(rc, ej_lattice_run(&coarse, lo, hi, out, &cap), out_free_points);
   for (int r = 0; r < f->n_refine; ++r) {
     ej_real rlo[3], rhi[3];
@@ -646,7 +653,7 @@ ej_err ej_shape_fill(const ej_shape *shape, const ej_fill *f, ej_points *out)
       memcpy(rhi, hi, sizeof rhi);
     }
     EJ_ENSURE(f->refine[r].spacing > 0, EJ_ERR_ARG, "refine spacing must be > 0");
-    ej_lattice_pass fine = {shape, f, lo, f->refine[r].spacing, r};
+    ej_lattice_pass fine = {shape, f, anchor, f->refine[r].spacing, r};
     EJ_TRY_GOTO(rc, ej_lattice_run(&fine, rlo, rhi, out, &cap), out_free_points);
   }
   /* After selection, so that the particle count never depends on the jitter. */

@@ -95,7 +95,8 @@ static const ej_param ej_mat_params[] = {
 static const char *const ej_mat_manual[] = {"eos", "model", NULL};
 
 typedef struct ej_set_cfg {
-  ej_real spacing, jitter, rho, e, p;
+  ej_real spacing, jitter, rho, e, p, mass;
+  ej_real lattice_origin[3];
   int lattice;
   int64_t seed;
 } ej_set_cfg;
@@ -110,6 +111,15 @@ static const ej_param ej_set_params[] = {
     EJ_PARAM_REAL(ej_set_cfg, jitter, "1", 0, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX | EJ_PF_MAX_OPEN,
                   "Random displacement of each coordinate, as a fraction of the local spacing."),
     EJ_PARAM_INT(ej_set_cfg, seed, 1, 0, 0, EJ_PF_HAS_MIN, "Seed of the jitter."),
+    EJ_PARAM_ARRAY(ej_set_cfg, lattice_origin, 3, "m", 0,
+                   "A corner of a lattice cell: the lattice (and every refine region's) passes through this point "
+                   "instead of the shape's lowest corner. Two sets with the same origin and spacing tile each other "
+                   "exactly, e.g. a charge and the soil cut out around it with minus (docs/core.md, \"Geometry\"). "
+                   "Three numbers in every dimension (the unused ones ignored)."),
+    EJ_PARAM_REAL(ej_set_cfg, mass, "kg", 0, 0, 0, EJ_PF_HAS_MIN,
+                  "Total mass of the set: every particle's volume is scaled by one factor so that the sum of "
+                  "rho V is this (a lattice holds its shape's volume only to about a layer of cells); a smoothing "
+                  "length or horizon taken from the volume follows the factor^(1/dim); 0 = the lattice's own."),
     EJ_PARAM_REAL(ej_set_cfg, rho, "kg/m^3", 0, 0, 0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN,
                   "Initial density; default the material's rho0."),
     EJ_PARAM_REAL(ej_set_cfg, e, "J/kg", 0, 0, 0, 0, "Initial specific internal energy."),
@@ -435,6 +445,9 @@ static ej_err ej_parse_set(ej_loader *L, int i)
   s->lattice = cfg.lattice == 1 ? EJ_LATTICE_HCP : EJ_LATTICE_CUBIC;
   s->jitter = cfg.jitter;
   s->seed = (uint64_t)cfg.seed;
+  s->mass = cfg.mass;
+  s->has_origin = ej_node_get(node, "lattice_origin") != NULL;
+  memcpy(s->origin, cfg.lattice_origin, sizeof s->origin);
 
   const ej_node *mat = ej_node_get(node, "material");
   if (!mat) return ej_error_input(&s->loc, "set '%s' needs 'material' (a key of materials)", s->name);
@@ -475,7 +488,7 @@ static ej_err ej_parse_set(ej_loader *L, int i)
     if (refine) EJ_TRY(ej_parse_refine(L, s, refine));
   } else {
     EJ_TRY(ej_resolve_file(L, s, file));
-    static const char *const shape_only[] = {"refine", "lattice", "jitter", "seed", NULL};
+    static const char *const shape_only[] = {"refine", "lattice", "jitter", "seed", "lattice_origin", NULL};
     for (int k = 0; shape_only[k]; ++k)
       if (ej_node_get(node, shape_only[k]))
         return ej_error_input(ej_node_key_loc(node, shape_only[k]),
@@ -914,7 +927,8 @@ ej_err ej_scene_set_points(const ej_scene *sc, int set, ej_points *pts)
                .refine = s->refine,
                .n_refine = s->n_refine,
                .jitter = s->jitter,
-               .seed = s->seed};
+               .seed = s->seed,
+               .origin = s->has_origin ? s->origin : NULL};
   EJ_TRY(ej_shape_fill(s->shape, &f, pts));
   if (pts->n == 0)
     return ej_error_input(&s->loc, "set '%s' has no particles: its shape holds no lattice point at spacing %g m",

@@ -32,6 +32,7 @@ typedef struct ej_fill {
   int n_refine;
   ej_real jitter; /* fraction of the local spacing */
   uint64_t seed;
+  const ej_real *origin; /* a cell corner of every lattice of the fill; NULL: the shape's lowest corner */
 } ej_fill;
 ej_err ej_shape_fill(const ej_shape *shape, const ej_fill *f, ej_points *out);
 

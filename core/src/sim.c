@@ -420,6 +420,16 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
     if (pts->spacing[i] < s->spacing_min) s->spacing_min = pts->spacing[i];
   }
   if (s->f_x0 >= 0) memcpy(s->fields[s->f_x0].data, x, (size_t)s->n * 3 * sizeof *x);
+  if (ss->mass > 0) { /* the set's `mass`: one factor on every volume, at the densities set below */
+    for (int k = 0; k < ss->n_init; ++k)
+      if (ss->init[k].has_rho)
+        for (ej_idx i = 0; i < s->n; ++i)
+          if (!ss->init[k].region || ej_shape_contains(ss->init[k].region, x + 3 * i)) rho_init[i] = ss->init[k].rho;
+    double total = 0;
+    for (ej_idx i = 0; i < s->n; ++i) total += (double)rho_init[i] * vol[i];
+    const ej_real scale = (ej_real)(ss->mass / total);
+    for (ej_idx i = 0; i < s->n; ++i) vol[i] *= scale;
+  }
   for (int k = 0; k < ss->n_init; ++k) {
     const ej_scene_init *in = &ss->init[k];
     if ((in->has_e || in->has_p || in->has_energy_total) && !e) {

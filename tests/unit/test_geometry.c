@@ -492,6 +492,82 @@ START_TEST(test_refine_tiling)
 }
 END_TEST
 
+/* lattice_origin: every lattice of the fill passes through the given point, below and above it
+ * (negative indices); two sets filled through one origin tile each other; hcp keeps its
+ * nearest-neighbour distance across the origin. */
+static void fill_at(const char *yaml, int dim, ej_lattice lat, double s, const ej_real *origin, ej_points *pts)
+{
+  shape_fix f;
+  shape_ok(&f, yaml, dim);
+  ej_fill fl = {.dim = dim, .lattice = lat, .spacing = s, .origin = origin};
+  ck_assert_int_eq(ej_shape_fill(f.shape, &fl, pts), EJ_OK);
+  shape_close(&f);
+}
+
+static double min_distance(const ej_points *a, const ej_points *b)
+{
+  double d2 = INFINITY;
+  for (ej_idx i = 0; i < a->n; ++i)
+    for (ej_idx j = 0; j < b->n; ++j) {
+      if (a == b && j <= i) continue;
+      double d = 0;
+      for (int k = 0; k < 3; ++k) d += (a->x[3 * i + k] - b->x[3 * j + k]) * (a->x[3 * i + k] - b->x[3 * j + k]);
+      d2 = fmin(d2, d);
+    }
+  return sqrt(d2);
+}
+
+START_TEST(test_lattice_origin)
+{
+  const ej_real o0[3] = {0, 0, 0};
+  ej_points p;
+  /* a box starting off the lattice: the sites are (k + 1/2) s from the origin, not from the box */
+  fill_at("box: {min: [0.013, 0.013, 0.013], max: [0.1, 0.1, 0.1]}", 3, EJ_LATTICE_CUBIC, 0.01, o0, &p);
+  ck_assert_int_eq(p.n, 9 * 9 * 9);
+  ck_assert(fabs(p.x[0] - 0.015) < 1e-15 && fabs(p.x[1] - 0.015) < 1e-15 && fabs(p.x[2] - 0.015) < 1e-15);
+  ej_points_free(&p);
+  /* without it: from the box's corner */
+  fill("box: {min: [0.013, 0.013, 0.013], max: [0.1, 0.1, 0.1]}", 3, EJ_LATTICE_CUBIC, 0.01, &p);
+  ck_assert(fabs(p.x[0] - 0.018) < 1e-15);
+  ej_points_free(&p);
+
+  /* an origin inside the shape: the lattice runs both ways from it (1D, symmetric) */
+  const ej_real oc[3] = {0.25, 0, 0};
+  fill_at("box: {min: [0.2], max: [0.3]}", 1, EJ_LATTICE_CUBIC, 0.01, oc, &p);
+  ck_assert_int_eq(p.n, 10);
+  double sum = 0;
+  for (ej_idx i = 0; i < p.n; ++i) sum += p.x[3 * i] - 0.25;
+  ck_assert(fabs(sum) < 1e-14);
+  ej_points_free(&p);
+
+  /* two sets through one origin tile each other: a sphere ("charge") and the box minus it
+   * ("soil") give exactly the box's lattice, one spacing apart everywhere. Anchored at their own
+   * corners (the default) the sphere's sites are off the box's lattice. */
+  const char *sph = "sphere: {center: [0.05, 0.05, 0.05], radius: 0.033}";
+  const char *rest = "box: {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}\n"
+                     "minus: [{sphere: {center: [0.05, 0.05, 0.05], radius: 0.033}}]\n";
+  ej_points a, b;
+  fill_at(sph, 3, EJ_LATTICE_CUBIC, 0.01, o0, &a);
+  fill_at(rest, 3, EJ_LATTICE_CUBIC, 0.01, o0, &b);
+  ck_assert_int_eq(a.n + b.n, 1000);
+  ck_assert(fabs(vol_sum(&a) + vol_sum(&b) - 1e-3) < 1e-15);
+  ck_assert(fabs(min_distance(&a, &b) - 0.01) < 1e-12);
+  ej_points_free(&a);
+  fill(sph, 3, EJ_LATTICE_CUBIC, 0.01, &a);
+  const double d_own = min_distance(&a, &b);
+  fprintf(stderr, "lattice_origin: sphere on its own corner: nearest box-minus-sphere particle %.4f spacings\n",
+          d_own / 0.01);
+  ck_assert(d_own < 0.9 * 0.01);
+  ej_points_free(&a);
+  ej_points_free(&b);
+
+  /* hcp through an origin inside the shape: nearest neighbours one spacing apart, no two closer */
+  fill_at("box: {min: [-0.03, -0.03, -0.03], max: [0.03, 0.03, 0.03]}", 3, EJ_LATTICE_HCP, 0.01, o0, &p);
+  ck_assert(fabs(min_distance(&p, &p) - 0.01) < 1e-12);
+  ej_points_free(&p);
+}
+END_TEST
+
 START_TEST(test_jitter)
 {
   shape_fix f;
@@ -702,6 +778,7 @@ int main(void)
   tcase_add_test(tc, test_hcp);
   tcase_add_test(tc, test_refine);
   tcase_add_test(tc, test_refine_tiling);
+  tcase_add_test(tc, test_lattice_origin);
   tcase_add_test(tc, test_jitter);
   tcase_add_test(tc, test_fill_errors);
   suite_add_tcase(s, tc);

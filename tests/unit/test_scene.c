@@ -349,6 +349,13 @@ START_TEST(test_bad_misc)
            "takes either 'shape' or 'file'", 6, 97);
   load_bad(HEAD "sets: {}\n", "'sets' is empty", 5, 7);
   load_bad(HEAD "gravity: [0, -9.81]\n" SET_OK, "expected a list of 3 numbers", 5, 10);
+  write_file("particles.csv", "x,y,z\n0,0,0\n0.1,0,0\n");
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, file: particles.csv, spacing: 0.1,"
+                " lattice_origin: [0, 0, 0]}\n",
+           "'lattice_origin' applies to sets filled from a shape", 6, 72);
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 1,"
+                " lattice_origin: [0, 0]}\n",
+           "must be a list of 3 numbers, got 2", 6, 113);
 }
 END_TEST
 

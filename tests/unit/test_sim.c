@@ -42,6 +42,41 @@ static void done(ej_sim *sim, ej_scene *scene, ej_registry *reg)
 
 #define GAS "materials:\n  gas: {rho0: 1.0, eos: {model: ideal_gas, gamma: 1.4}}\n"
 
+/* A set's `mass`: one factor on every particle volume so that the set holds the given mass, at
+ * the densities its initial regions set; the lattice positions and the density stay. */
+START_TEST(test_set_mass)
+{
+  ej_registry *reg;
+  ej_scene *scene;
+  ej_sim *sim = make_sim("ejecta: 1\ndimension: 3\ntime: {end: 0.01}\n" GAS
+                         "sets:\n  ball: {method: sph, material: gas, shape: {sphere: {center: [0, 0, 0], radius: 0.1}},"
+                         " spacing: 0.03, mass: 2.5 g, p: 1,\n"
+                         "         initial: [{region: {half_space: {point: [0, 0, 0], normal: [1, 0, 0]}}, rho: 3}]}\n"
+                         "  free: {method: sph, material: gas, shape: {sphere: {center: [1, 0, 0], radius: 0.1}},"
+                         " spacing: 0.03, p: 1}\n",
+                         &reg, &scene);
+  const ej_set *s = sim->sets[0], *f = sim->sets[1];
+  ck_assert_int_eq(s->n, f->n);
+  const ej_real *m = ej_set_field((ej_set *)s, "m"), *vol = ej_set_field((ej_set *)s, "vol0");
+  const ej_real *rho = ej_set_field((ej_set *)s, "rho"), *volf = ej_set_field((ej_set *)f, "vol0");
+  double total = 0, lattice = 0;
+  int dense = 0;
+  for (ej_idx i = 0; i < s->n; ++i) {
+    total += m[i];
+    lattice += volf[i];
+    ck_assert(fabs(m[i] - rho[i] * vol[i]) < 1e-15 * m[i]);
+    ck_assert(fabs(vol[i] / volf[i] - vol[0] / volf[0]) < 1e-14); /* one factor */
+    dense += rho[i] == 3;
+  }
+  ck_assert_int_gt(dense, 0); /* the region's density is the one the mass was scaled at */
+  ck_assert_int_lt(dense, (int)s->n);
+  ck_assert(fabs(total - 2.5e-3) < 1e-15);
+  fprintf(stderr, "set mass: %d particles, volume factor %.6f (lattice volume %.4e m^3 of the sphere's %.4e)\n",
+          (int)s->n, vol[0] / volf[0], lattice, 4.0 / 3.0 * 3.141592653589793 * 1e-3);
+  done(sim, scene, reg);
+}
+END_TEST
+
 START_TEST(test_watchdog)
 {
   ej_registry *reg;
@@ -396,6 +431,7 @@ int main(void)
   TCase *tc = tcase_create("core");
   tcase_set_timeout(tc, 300);
   tcase_add_test(tc, test_watchdog);
+  tcase_add_test(tc, test_set_mass);
   tcase_add_test(tc, test_fields_only_declared);
   tcase_add_test(tc, test_gravity_energy);
   tcase_add_test(tc, test_fix_and_velocity_bcs);
