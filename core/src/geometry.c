@@ -636,7 +636,7 @@ ej_err ej_shape_fill(const ej_shape *shape, const ej_fill *f, ej_points *out)
   EJ_TRY(ej_shape_bounds(shape, lo, hi));
   /* the anchor of every lattice of the fill: the shape's lowest corner, or the given origin (the
    * enumeration below then runs over negative indices too) */
-  ej_real anchor[3] = {0, 0, 0};
+  ej_real anchor[3];
   for (int k = 0; k < 3; ++k) anchor[k] = f->origin && k < f->dim ? f->origin[k] : lo[k];
   ej_idx cap = 0;
   ej_err rc = EJ_OK;

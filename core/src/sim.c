@@ -398,6 +398,12 @@ static bool ej_bc_active(const ej_sim *sim, const ej_scene_bc *bc)
   return bc->kind != EJ_BC_VELOCITY || sim->t <= bc->until + 1e-12 * (sim->scene->t_end > 0 ? sim->scene->t_end : 1);
 }
 
+/* Whether an `initial` block applies at x (no region: everywhere). */
+static bool ej_init_covers(const ej_scene_init *in, const ej_real *x)
+{
+  return !in->region || ej_shape_contains(in->region, x);
+}
+
 static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, const ej_points *pts)
 {
   const ej_model *model = s->model;
@@ -424,7 +430,7 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
     for (int k = 0; k < ss->n_init; ++k)
       if (ss->init[k].has_rho)
         for (ej_idx i = 0; i < s->n; ++i)
-          if (!ss->init[k].region || ej_shape_contains(ss->init[k].region, x + 3 * i)) rho_init[i] = ss->init[k].rho;
+          if (ej_init_covers(&ss->init[k], x + 3 * i)) rho_init[i] = ss->init[k].rho;
     double total = 0;
     for (ej_idx i = 0; i < s->n; ++i) total += (double)rho_init[i] * vol[i];
     const ej_real scale = (ej_real)(ss->mass / total);
@@ -443,7 +449,7 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
     }
     ej_real mass_in = 0;
     for (ej_idx i = 0; i < s->n; ++i) {
-      if (in->region && !ej_shape_contains(in->region, x + 3 * i)) continue;
+      if (!ej_init_covers(in, x + 3 * i)) continue;
       if (in->has_rho) rho_init[i] = in->rho;
       if (in->has_v) memcpy(v + 3 * i, in->v, 3 * sizeof *v);
       if (in->has_e) e[i] = in->e;
@@ -456,7 +462,7 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
         goto out_free;
       }
       for (ej_idx i = 0; i < s->n; ++i)
-        if (!in->region || ej_shape_contains(in->region, x + 3 * i)) e[i] += in->energy_total / mass_in;
+        if (ej_init_covers(in, x + 3 * i)) e[i] += in->energy_total / mass_in;
     }
   }
   for (ej_idx i = 0; i < s->n; ++i) {
