@@ -1476,13 +1476,16 @@ static const int32_t sph_solid_perm32[16][8] __attribute__((aligned(32))) = {
     {2, 3, 0, 0, 0, 0, 0, 0}, {0, 2, 3, 0, 0, 0, 0, 0}, {1, 2, 3, 0, 0, 0, 0, 0}, {0, 1, 2, 3, 0, 0, 0, 0}};
 #endif
 
-/* Compaction gather of the gas pair loop (sph_pairs_blocked), the algorithm of sph_solid_gather
- * with the gas block SPH_BLK: from list entry *k on, up to SPH_BLK entries with r2 < 4 hbar^2 go
- * to bx, by, bz, bh, jb (a skin entry's slot is overwritten by the next entry). The test is the
- * one of the pair loop's `keep`, same operations in the same order (no contraction under
- * -std=c11), so every gathered entry has keep = true there and none it keeps is dropped. Returns
- * the count and advances *k past the entries read. */
-static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_real *restrict x,
+/* Compaction gather of the pair loops (the gas loop sph_pairs_blocked with blk = SPH_BLK, the
+ * shape pass, the two solid loops with SPH_SOLID_BLK): from list entry *k on, up to blk entries
+ * inside 2 hbar (and, with drop_self, not coincident) go to the buffers bx, by, bz, bh, jb; the
+ * slot of a skin entry is overwritten by the next one (branch-free). The test is the one of the
+ * gas pair loop's `keep`, same operations in the same order (no contraction under -std=c11), so
+ * every gathered entry has keep = true there and none it keeps is dropped. Callers pass xi1 = 0
+ * (xi2 = 0) below 2D (3D), as the entries' unused components are read as 0. Returns the count
+ * and advances *k past the entries read. blk and drop_self are constants at every call (inlined). */
+static inline SPH_ALWAYS_INLINE int sph_gather_compact(const int dim, const int blk, const bool drop_self,
+                                                       const ej_real *restrict x,
                                                      const ej_real *restrict h, const ej_idx *restrict idx,
                                                      ej_off *k, const ej_off kend, const ej_real xi0,
                                                      const ej_real xi1, const ej_real xi2, const ej_real hi,
@@ -1492,22 +1495,30 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
   int nk = 0;
   ej_off kk = *k;
 #if defined(__AVX2__)
+  /* 3D with AVX2: four entries at a time (gathers, one compare, compress-store through the
+   * permutation tables). The same operations in the same order as the scalar loop below (no FMA:
+   * -std=c11 keeps contraction off), so the same entries in the same slots and the same block
+   * boundaries: bitwise the same results. The scalar loop finishes the block (nk > BLK - 4) and
+   * the row (fewer than 4 entries left). */
   if (dim == 3) {
     const __m256d vx0 = _mm256_set1_pd(xi0), vx1 = _mm256_set1_pd(xi1), vx2 = _mm256_set1_pd(xi2);
     const __m256d vhi = _mm256_set1_pd(hi), half = _mm256_set1_pd(0.5), four = _mm256_set1_pd(4.0);
-    for (; kk + 4 <= kend && nk <= SPH_BLK - 4; kk += 4) {
+    for (; kk + 4 <= kend && nk <= blk - 4; kk += 4) {
       const __m128i j4 = _mm_loadu_si128((const __m128i *)(const void *)(idx + kk));
+      /* scalar loads, not vgatherqpd (microcoded and slower on AMD Zen 3) */
       const ej_idx ja = idx[kk], jbb = idx[kk + 1], jc = idx[kk + 2], jd = idx[kk + 3];
       const ej_real *xa = x + 3 * (size_t)ja, *xb = x + 3 * (size_t)jbb, *xc = x + 3 * (size_t)jc,
                     *xd = x + 3 * (size_t)jd;
-      __m256d X, Y;
+      __m256d X, Y; /* x and y: two 128-bit loads per pair of entries, interleaved (sph_pairs_xy4) */
       sph_pairs_xy4(x, idx + kk, &X, &Y);
       const __m256d Z = _mm256_set_pd(xd[2], xc[2], xb[2], xa[2]), H = _mm256_set_pd(h[jd], h[jc], h[jbb], h[ja]);
       const __m256d hb = _mm256_mul_pd(half, _mm256_add_pd(vhi, H));
       const __m256d d0 = _mm256_sub_pd(vx0, X), d1 = _mm256_sub_pd(vx1, Y), d2 = _mm256_sub_pd(vx2, Z);
       const __m256d r2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(d0, d0), _mm256_mul_pd(d1, d1)),
                                        _mm256_mul_pd(d2, d2));
-      const int msk = _mm256_movemask_pd(_mm256_cmp_pd(r2, _mm256_mul_pd(_mm256_mul_pd(four, hb), hb), _CMP_LT_OQ));
+      __m256d in = _mm256_cmp_pd(r2, _mm256_mul_pd(_mm256_mul_pd(four, hb), hb), _CMP_LT_OQ);
+      if (drop_self) in = _mm256_and_pd(in, _mm256_cmp_pd(r2, _mm256_setzero_pd(), _CMP_GT_OQ));
+      const int msk = _mm256_movemask_pd(in);
       const __m256i p = _mm256_load_si256((const __m256i *)(const void *)sph_solid_perm64[msk]);
       _mm256_storeu_pd(bx + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(X), p)));
       _mm256_storeu_pd(by + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(Y), p)));
@@ -1520,17 +1531,40 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
     }
   }
 #endif
-  for (; kk < kend && nk < SPH_BLK; ++kk) {
+  for (; kk < kend && nk < blk; ++kk) {
     const ej_idx j = idx[kk];
     const ej_real xj0 = x[3 * j], xj1 = dim > 1 ? x[3 * j + 1] : 0.0, xj2 = dim > 2 ? x[3 * j + 2] : 0.0;
     const ej_real hj = h[j], hb = 0.5 * (hi + hj);
-    const ej_real d0 = xi0 - xj0, d1 = dim > 1 ? xi1 - xj1 : 0.0, d2 = dim > 2 ? xi2 - xj2 : 0.0;
-    const ej_real r2 = d0 * d0 + d1 * d1 + d2 * d2;
+    const ej_real d0 = xi0 - xj0, d1 = xi1 - xj1, d2 = xi2 - xj2, r2 = d0 * d0 + d1 * d1 + d2 * d2;
     bx[nk] = xj0, by[nk] = xj1, bz[nk] = xj2, bh[nk] = hj, jb[nk] = j;
-    nk += r2 < 4.0 * hb * hb;
+    nk += r2 < 4.0 * hb * hb && (!drop_self || r2 > 0.0);
   }
   *k = kk;
   return nk;
+}
+
+
+/* The gas pair loop's and the shape pass's gather (blocks of SPH_BLK, coincident entries kept). */
+static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_real *restrict x,
+                                                     const ej_real *restrict h, const ej_idx *restrict idx,
+                                                     ej_off *k, const ej_off kend, const ej_real xi0,
+                                                     const ej_real xi1, const ej_real xi2, const ej_real hi,
+                                                     ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
+                                                     ej_real *restrict bh, ej_idx *restrict jb)
+{
+  return sph_gather_compact(dim, SPH_BLK, false, x, h, idx, k, kend, xi0, xi1, xi2, hi, bx, by, bz, bh, jb);
+}
+
+/* The solid pair loops' gather (blocks of SPH_SOLID_BLK). */
+static inline SPH_ALWAYS_INLINE int sph_solid_gather(const int dim, const bool drop_self, const ej_real *restrict x,
+                                                     const ej_real *restrict h, const ej_idx *restrict idx,
+                                                     ej_off *k, const ej_off kend, const ej_real xi0,
+                                                     const ej_real xi1, const ej_real xi2, const ej_real hi,
+                                                     ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
+                                                     ej_real *restrict bh, ej_idx *restrict jb)
+{
+  return sph_gather_compact(dim, SPH_SOLID_BLK, drop_self, x, h, idx, k, kend, xi0, xi1, xi2, hi, bx, by, bz, bh,
+                            jb);
 }
 
 #if defined(__AVX2__)
@@ -1564,68 +1598,6 @@ static inline SPH_ALWAYS_INLINE void sph_solid_g4(const ej_real *restrict a, con
                                       a[stride * (size_t)j4[1]], a[stride * (size_t)j4[0]]));
 }
 #endif
-
-/* Compaction gather shared by the two solid pair loops: from list entry *k on, up to
- * SPH_SOLID_BLK entries inside 2 hbar (and, with drop_self, not coincident) go to the buffers
- * bx, by, bz, bh, jb; the slot of a skin entry is overwritten by the next one (branch-free).
- * Returns the count and advances *k past the entries read. */
-static inline SPH_ALWAYS_INLINE int sph_solid_gather(const int dim, const bool drop_self, const ej_real *restrict x,
-                                                     const ej_real *restrict h, const ej_idx *restrict idx,
-                                                     ej_off *k, const ej_off kend, const ej_real xi0,
-                                                     const ej_real xi1, const ej_real xi2, const ej_real hi,
-                                                     ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
-                                                     ej_real *restrict bh, ej_idx *restrict jb)
-{
-  int nk = 0;
-  ej_off kk = *k;
-#if defined(__AVX2__)
-  /* 3D with AVX2: four entries at a time (gathers, one compare, compress-store through the
-   * permutation tables). The same operations in the same order as the scalar loop below (no FMA:
-   * -std=c11 keeps contraction off), so the same entries in the same slots and the same block
-   * boundaries: bitwise the same results. The scalar loop finishes the block (nk > BLK - 4) and
-   * the row (fewer than 4 entries left). */
-  if (dim == 3) {
-    const __m256d vx0 = _mm256_set1_pd(xi0), vx1 = _mm256_set1_pd(xi1), vx2 = _mm256_set1_pd(xi2);
-    const __m256d vhi = _mm256_set1_pd(hi), half = _mm256_set1_pd(0.5), four = _mm256_set1_pd(4.0);
-    for (; kk + 4 <= kend && nk <= SPH_SOLID_BLK - 4; kk += 4) {
-      const __m128i j4 = _mm_loadu_si128((const __m128i *)(const void *)(idx + kk));
-      /* scalar loads, not vgatherqpd (microcoded and slower on AMD Zen 3) */
-      const ej_idx ja = idx[kk], jbb = idx[kk + 1], jc = idx[kk + 2], jd = idx[kk + 3];
-      const ej_real *xa = x + 3 * (size_t)ja, *xb = x + 3 * (size_t)jbb, *xc = x + 3 * (size_t)jc,
-                    *xd = x + 3 * (size_t)jd;
-      __m256d X, Y; /* x and y: two 128-bit loads per pair of entries, interleaved (sph_pairs_xy4) */
-      sph_pairs_xy4(x, idx + kk, &X, &Y);
-      const __m256d Z = _mm256_set_pd(xd[2], xc[2], xb[2], xa[2]), H = _mm256_set_pd(h[jd], h[jc], h[jbb], h[ja]);
-      const __m256d hb = _mm256_mul_pd(half, _mm256_add_pd(vhi, H));
-      const __m256d d0 = _mm256_sub_pd(vx0, X), d1 = _mm256_sub_pd(vx1, Y), d2 = _mm256_sub_pd(vx2, Z);
-      const __m256d r2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(d0, d0), _mm256_mul_pd(d1, d1)),
-                                       _mm256_mul_pd(d2, d2));
-      __m256d in = _mm256_cmp_pd(r2, _mm256_mul_pd(_mm256_mul_pd(four, hb), hb), _CMP_LT_OQ);
-      if (drop_self) in = _mm256_and_pd(in, _mm256_cmp_pd(r2, _mm256_setzero_pd(), _CMP_GT_OQ));
-      const int msk = _mm256_movemask_pd(in);
-      const __m256i p = _mm256_load_si256((const __m256i *)(const void *)sph_solid_perm64[msk]);
-      _mm256_storeu_pd(bx + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(X), p)));
-      _mm256_storeu_pd(by + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(Y), p)));
-      _mm256_storeu_pd(bz + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(Z), p)));
-      _mm256_storeu_pd(bh + nk, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(H), p)));
-      const __m256i pj = _mm256_load_si256((const __m256i *)(const void *)sph_solid_perm32[msk]);
-      _mm_storeu_si128((__m128i *)(void *)(jb + nk),
-                       _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(_mm256_castsi128_si256(j4), pj)));
-      nk += __builtin_popcount((unsigned)msk);
-    }
-  }
-#endif
-  for (; kk < kend && nk < SPH_SOLID_BLK; ++kk) {
-    const ej_idx j = idx[kk];
-    const ej_real xj0 = x[3 * j], xj1 = dim > 1 ? x[3 * j + 1] : 0.0, xj2 = dim > 2 ? x[3 * j + 2] : 0.0;
-    const ej_real hj = h[j], hb = 0.5 * (hi + hj);
-    const ej_real d0 = xi0 - xj0, d1 = xi1 - xj1, d2 = xi2 - xj2, r2 = d0 * d0 + d1 * d1 + d2 * d2;
-    bx[nk] = xj0, by[nk] = xj1, bz[nk] = xj2, bh[nk] = hj, jb[nk] = j;
-    nk += r2 < 4.0 * hb * hb && (!drop_self || r2 > 0.0);
-  }
-  *k = kk;
-  return nk;
-}
 
 /* Velocity gradient of particle i (3x3 row-major, zero outside the dim x dim block), blocked like
  * sph_pairs_blocked: the neighbours' data are gathered into contiguous buffers (a scalar loop),
