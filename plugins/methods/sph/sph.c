@@ -698,9 +698,11 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_xy4(const ej_real *restrict a, co
                                            _mm_loadu_pd(a + 3 * (size_t)j4[3]), 1);
   *c0 = _mm256_unpacklo_pd(u02, u13), *c1 = _mm256_unpackhi_pd(u02, u13);
 }
-/* M_inv (6 per particle) of four entries, transposed into dst[t ds + 0..3] (t = 0..5): a 256-bit
- * and a 128-bit load per entry, a 4 x 4 and a 2 x 4 transpose. Data movement only. */
-static inline SPH_ALWAYS_INLINE void sph_pairs_m6(const ej_real *restrict M, const ej_idx *restrict j4,
+/* Six values per particle (M_inv, a Voigt tensor) of four entries, transposed into dst[t ds + 0..3]
+ * (t = 0..5): a 256-bit and a 128-bit load per entry, a 4 x 4 and a 2 x 4 transpose, instead of 24
+ * scalar loads and stores. Data movement only. The gas loop (ds = SPH_BLK) and the solid force
+ * loop (ds = SPH_SOLID_BLK) use it. */
+static inline SPH_ALWAYS_INLINE void sph_gather_t6(const ej_real *restrict M, const ej_idx *restrict j4,
                                                   ej_real *restrict dst, const size_t ds)
 {
   const ej_real *m0 = M + 6 * (size_t)j4[0], *m1 = M + 6 * (size_t)j4[1], *m2 = M + 6 * (size_t)j4[2],
@@ -1132,7 +1134,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
         sph_pairs_g4(rho, 1, j4, brho + q), sph_pairs_g4(c, 1, j4, bc + q);
         sph_pairs_g4(p_rho2, 1, j4, bpr + q), sph_pairs_g4(m, 1, j4, bm + q);
         if (sym)
-          sph_pairs_m6(M, j4, bM[0] + q, SPH_BLK);
+          sph_gather_t6(M, j4, bM[0] + q, SPH_BLK);
       }
       for (; q < nk; ++q) {
         const ej_idx j = jq[q];
@@ -1568,27 +1570,6 @@ static inline SPH_ALWAYS_INLINE int sph_solid_gather(const int dim, const bool d
 }
 
 #if defined(__AVX2__)
-/* Gather of four rows (6 values each: Voigt tensors) of a into the component buffers
- * dst[t * SPH_SOLID_BLK + 0..3], t = 0..5: four row loads and a 4x4 (+ 4x2) transpose instead of
- * 24 scalar loads and 24 scalar stores. Data movement only (bitwise the same). */
-static inline SPH_ALWAYS_INLINE void sph_solid_t6(const ej_real *restrict a, const ej_idx *restrict j4,
-                                                  ej_real *restrict dst)
-{
-  const ej_real *p0 = a + 6 * (size_t)j4[0], *p1 = a + 6 * (size_t)j4[1];
-  const ej_real *p2 = a + 6 * (size_t)j4[2], *p3 = a + 6 * (size_t)j4[3];
-  const __m256d r0 = _mm256_loadu_pd(p0), r1 = _mm256_loadu_pd(p1), r2 = _mm256_loadu_pd(p2), r3 = _mm256_loadu_pd(p3);
-  const __m256d t0 = _mm256_unpacklo_pd(r0, r1), t1 = _mm256_unpackhi_pd(r0, r1);
-  const __m256d t2 = _mm256_unpacklo_pd(r2, r3), t3 = _mm256_unpackhi_pd(r2, r3);
-  _mm256_storeu_pd(dst, _mm256_permute2f128_pd(t0, t2, 0x20));
-  _mm256_storeu_pd(dst + SPH_SOLID_BLK, _mm256_permute2f128_pd(t1, t3, 0x20));
-  _mm256_storeu_pd(dst + 2 * SPH_SOLID_BLK, _mm256_permute2f128_pd(t0, t2, 0x31));
-  _mm256_storeu_pd(dst + 3 * SPH_SOLID_BLK, _mm256_permute2f128_pd(t1, t3, 0x31));
-  const __m256d u02 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p0 + 4)), _mm_loadu_pd(p2 + 4), 1);
-  const __m256d u13 = _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadu_pd(p1 + 4)), _mm_loadu_pd(p3 + 4), 1);
-  _mm256_storeu_pd(dst + 4 * SPH_SOLID_BLK, _mm256_unpacklo_pd(u02, u13));
-  _mm256_storeu_pd(dst + 5 * SPH_SOLID_BLK, _mm256_unpackhi_pd(u02, u13));
-}
-
 /* Gather of a[stride * j + comp] for the four indices j4[0..3] into dst[0..3]: scalar loads into
  * one vector and one store (instead of four scalar stores). Data movement only. */
 static inline SPH_ALWAYS_INLINE void sph_solid_g4(const ej_real *restrict a, const size_t stride,
@@ -1873,13 +1854,13 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
     for (ej_off k = off[i]; k < kend;) {
       /* compaction: only the entries inside 2 hbar enter the buffers */
       const int nk = sph_solid_gather(dim, false, x, h, idx, &k, kend, xi0, xi1, xi2, hi, bx, by, bz, bh, jb);
-      int q6 = 0; /* the tensor rows of entries [0, q6) are gathered by sph_solid_t6 */
+      int q6 = 0; /* the tensor rows of entries [0, q6) are gathered by sph_gather_t6 */
 #if defined(__AVX2__)
       for (; q6 + 4 <= nk; q6 += 4) {
         ej_real *const b0 = &buf[0][0] + q6; /* the whole buffer array: rows t = 0..5 of each tensor */
-        sph_solid_t6(sr2, jb + q6, b0 + BS0 * SPH_SOLID_BLK);
-        sph_solid_t6(R, jb + q6, b0 + BR0 * SPH_SOLID_BLK);
-        if (corr) sph_solid_t6(L, jb + q6, b0 + BL0 * SPH_SOLID_BLK);
+        sph_gather_t6(sr2, jb + q6, b0 + BS0 * SPH_SOLID_BLK, SPH_SOLID_BLK);
+        sph_gather_t6(R, jb + q6, b0 + BR0 * SPH_SOLID_BLK, SPH_SOLID_BLK);
+        if (corr) sph_gather_t6(L, jb + q6, b0 + BL0 * SPH_SOLID_BLK, SPH_SOLID_BLK);
       }
 #endif
       int q4 = 0; /* v, rho, c, m of entries [0, q4) gathered four at a time (3D, AVX2) */
