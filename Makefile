@@ -5,7 +5,7 @@ JOBS     ?= $(shell nproc 2>/dev/null || echo 2)
 SCENE    ?= examples/buried_charge.yaml
 PYTHON   ?= /usr/bin/python3
 CMAKE_ARGS ?=
-DEB_DEPS := cmake make gcc pkg-config libyaml-dev libhdf5-dev check python3 python3-h5py python3-numpy python3-matplotlib
+DEB_DEPS := cmake make gcc pkg-config libyaml-dev libhdf5-dev check python3 python3-h5py python3-numpy python3-matplotlib python3-scipy
 
 .PHONY: all deps build run test test-sanitize validate bench schema clean
 .PHONY: fuzz docs

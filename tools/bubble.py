@@ -67,6 +67,21 @@ def measure(x, z_s, dx, min_nbrs=0):
     return height, 2.0 * float(r.max())
 
 
+def axis_front(x, z_s, dx, radius=0.03, q=0.9):
+    """Two heights of the soil above the surface (z > z_s + dx/2) within a FIXED distance `radius`
+    of the charge axis (default 30 mm, the charge's radius), the same window at every spacing
+    (measure()'s window, 2 dx, narrows as the spacing does): the highest such particle, and the
+    height below which the fraction q of them lies (default 0.9: the front of the bulk of the
+    lifted soil on the axis, not its few fastest particles). Counts are masses where the window
+    lies in one uniform lattice (the refined box of the buried-charge scenes). Returns (0, 0)
+    when no soil is above the surface there."""
+    r = np.sqrt(x[:, 0] ** 2 + x[:, 1] ** 2)
+    z = x[(x[:, 2] > z_s + 0.5 * dx) & (r < radius), 2] - z_s
+    if z.size == 0:
+        return 0.0, 0.0
+    return float(z.max()), float(np.quantile(z, q))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("out", help="ejecta HDF5 output")
