@@ -12,8 +12,11 @@ axis - z_s. Bubble width = twice the largest
 distance from the charge axis among bubble particles whose height is below half the bubble height
 (the width of the dome at its base half). With --min-nbrs N only soil particles with at least N
 other soil particles within 1.5 dx count: the coherent dome without the isolated fragments that
-fly ahead of it (validation/buried_charge uses N = 3). The scene's charge axis is the z axis through x = y = 0
-(a quarter model with symmetry planes x = 0 and y = 0).
+fly ahead of it (validation/buried_charge uses N = 3). axis_front() (used by validation/buried_charge,
+not written by this command) gives the highest soil and the height below which 90 % of the soil above
+the surface lies within a fixed 30 mm of the axis: the same window at every spacing, where the
+height's window above, 2 dx, narrows with the spacing. The scene's charge axis is the z axis through
+x = y = 0 (a quarter model with symmetry planes x = 0 and y = 0).
 
 Writes a CSV (t_ms, height_mm, width_mm), a PNG of both against time and a PNG of vertical cuts
 (|y| < dx) of the soil (and gas) coloured by speed at the requested times.
