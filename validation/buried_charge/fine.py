@@ -76,7 +76,7 @@ COLS = ("t_ms", "height_mm", "width_mm", "coherent_height_mm", "coherent_width_m
 
 
 def prior_curves(csv_path):
-    """Curves of an earlier fine.py CSV (label -> rows t, height, width, coherent height, width)."""
+    """Curves of an earlier fine.py CSV (label -> rows of COLS)."""
     out = {}
     with open(csv_path, newline="") as f:
         for r in csv.DictReader(f):
@@ -127,7 +127,7 @@ def main():
         elif a.full:
             p, perf = ensure(exe, scene, os.path.join(a.outdir, scene[:-5] + ".h5"), a.threads, a.reuse)
             runs.append((label, p, perf, style))
-    # fine curves of the earlier CSV that no scene of today makes (the DOB 3 cm fine scenes before the
+    # fine curves of the earlier CSV that no scene of today makes (the DOB 3 cm tlpd scene before the
     # README's ninth pass, 4 / 8 mm, lattices off): drawn dotted for comparison, and kept in the CSV
     known = {r[0] for r in runs}
     for label in list(prior):
