@@ -127,6 +127,13 @@ def charge_mass(path, gas="charge"):
         return None
 
 
+def spread(levels, key):
+    """|finest - next| / finest of levels[-1][key] and levels[-2][key] (inf when the finest is 0 or
+    not a number)."""
+    v1, v2 = levels[-1][key], levels[-2][key]
+    return abs(v2 - v1) / v1 if v1 > 0 else float("inf")
+
+
 def finish_figure(fig, axes, title, png):
     """Time axis, grid and legend on every panel of a bubble-against-time figure; title; save."""
     for q in axes:
@@ -183,12 +190,9 @@ def main():
             if perf is None and not os.path.exists(out) and os.path.exists(out + ".partial"):
                 crash = "stopped (reused partial output)"
             rows, n, steps, e = curve(out + ".partial" if crash else out)
-            h05 = float(np.interp(0.5, rows[:, 0], rows[:, 1]))
-            hc05 = float(np.interp(0.5, rows[:, 0], rows[:, 3]))
-            m05 = float(np.interp(0.5, rows[:, 0], rows[:, 5]))
-            q05 = float(np.interp(0.5, rows[:, 0], rows[:, 6]))
-            if crash:  # no frame at 0.5 ms: nothing to interpolate
-                h05 = hc05 = m05 = q05 = float("nan")
+            # at 0.5 ms: all-soil height, coherent dome, highest within 30 mm, 90 % front (curve's columns)
+            h05, hc05, m05, q05 = (float("nan") if crash else float(np.interp(0.5, rows[:, 0], rows[:, c]))
+                                   for c in (1, 3, 5, 6))  # a stopped run has no frame at 0.5 ms
             results.append(dict(kind=kind, sand=sand, ratio=ratio, dq=dq, rows=rows, n=n, steps=steps, bal=e, h05=h05,
                                 hc05=hc05, m05=m05, q05=q05, perf=perf, crash=crash))
             mq = charge_mass(out + ".partial" if crash else out)
@@ -233,10 +237,7 @@ def main():
         tl = sorted([r for r in results if r["kind"] == "tlpd" and r["ratio"] == ratio], key=lambda r: -r["sand"])
         if len(tl) < 2:
             continue
-        f1, f2 = tl[-1]["h05"], tl[-2]["h05"]
-        d = abs(f2 - f1) / max(abs(f1), 1e-12)
-        c1, c2 = tl[-1]["hc05"], tl[-2]["hc05"]
-        dc = abs(c2 - c1) / c1 if c1 > 0 else float("inf")
+        d, dc = spread(tl, "h05"), spread(tl, "hc05")
         # the verdict needs both: the highest soil near the axis and the coherent dome (a height of
         # single fragments converging while there is no dome is not a converged bubble)
         fam_ok = d < 0.10 and dc < 0.10 and not any(r["crash"] for r in tl)
@@ -249,10 +250,8 @@ def main():
               f"two finest differ by {100 * dc:.1f} %: {'PASS' if fam_ok else 'FAIL'}")
         # not in the verdict: the same window (30 mm) at every spacing; reported (README, ninth pass)
         for key, what in (("m05", "highest soil within 30 mm of the axis"), ("q05", "its 90 % front")):
-            v1, v2 = tl[-1][key], tl[-2][key]
-            dv = abs(v2 - v1) / v1 if v1 > 0 else float("inf")
             print(f"  {what} at 0.5 ms: " + ", ".join("%.1f" % r[key] for r in tl)
-                  + f" mm; two finest differ by {100 * dv:.1f} % (reported, not in the verdict)")
+                  + f" mm; two finest differ by {100 * spread(tl, key):.1f} % (reported, not in the verdict)")
     ok = ok and checked > 0  # no family with two tlpd levels: nothing converged
     print("PASS" if ok else "FAIL", f"figure {a.png}")
     return 0 if ok else 1
