@@ -23,6 +23,14 @@ the finest, for all soil and for the coherent dome.
 
     nice /usr/bin/python3 validation/buried_charge/check.py [--build build] [--sand 7.5,6,5]
         [--charge-ratio 1] [--sph-sand 6] [--outdir /tmp/bc] [--reuse] [--threads 1] [--full]
+        [--perturb 6,5 [--perturb-variants mass,cfl0.32,cfl0.28]]
+
+--perturb (README "Tenth pass"): each listed tlpd level is run again with perturbations that change
+the physics by far less than a spacing does: the charge's mass +0.1 % (25.025 g), or the Courant
+number 0.32 or 0.28 instead of 0.3. Prints, per level and measure, the values at 0.5 ms of the
+level and its perturbed runs and their spread (max - min over max), and draws
+buried_charge_perturb.png. A measure whose spread at one level is near the verdict's 10 % cannot
+decide convergence at that level. Reported only: the verdict is unchanged.
 """
 import argparse
 import os
@@ -61,6 +69,22 @@ def scaled_scene(src, sand_mm, charge_mm, out, reach=None, tlpd_opts=None):
     t, n1 = re.subn(r"\n    spacing: 6 mm\n", f"\n    spacing: {charge_mm:.6g} mm\n", t)  # the charge set
     t, n2 = re.subn(r"(\]}}, spacing: )6 mm}", rf"\g<1>{sand_mm:.6g} mm}}", t)  # the refined sand box
     assert n1 == 1 and n2 == 1, f"{src}: the charge's and the refined box's spacings (6 mm) not found"
+    return t
+
+
+# --perturb: key -> (what, pattern, replacement); each changes one number of the example's text
+PERTURB = {
+    "mass": ("charge mass +0.1 %", r"\n    mass: 25 g", "\n    mass: 25.025 g"),
+    "cfl0.32": ("cfl 0.32", r"cfl: 0\.3\}", "cfl: 0.32}"),
+    "cfl0.28": ("cfl 0.28", r"cfl: 0\.3\}", "cfl: 0.28}"),
+}
+
+
+def perturbed(text, key):
+    """The scene text with PERTURB[key]'s one substitution (exactly one match)."""
+    _, pat, rep = PERTURB[key]
+    t, n = re.subn(pat, rep, text)
+    assert n == 1, f"perturbation {key}: {n} matches of {pat!r}"
     return t
 
 
@@ -145,6 +169,41 @@ def finish_figure(fig, axes, title, png):
     fig.savefig(png, dpi=110)
 
 
+def perturb_study(a, results, level, plt):
+    """--perturb: each listed tlpd level (charge as fine as the sand) again with each perturbation;
+    per level and measure the values at 0.5 ms and their spread (max - min over max); the figure."""
+    keys = [k.strip() for k in a.perturb_variants.split(",") if k.strip()]
+    bad = [k for k in keys if k not in PERTURB]
+    if bad:
+        sys.exit(f"--perturb-variants: unknown {bad}; expected some of {list(PERTURB)}")
+    measures = (("h05", 1, "all soil, 2 dx window"), ("hc05", 3, "coherent dome"),
+                ("m05", 5, "highest within 30 mm"), ("q05", 6, "90 % front within 30 mm"))
+    fig, ax = plt.subplots(1, len(measures), figsize=(19, 4.2))
+    styles = {None: "-", "mass": "--", "cfl0.32": ":", "cfl0.28": "-."}
+    for sand in [float(q) for q in a.perturb.split(",") if q.strip()]:
+        base = [r for r in results if r["kind"] == "tlpd" and r["ratio"] == 1 and r["sand"] == sand]
+        runs = (base or [level("tlpd", "buried_charge.yaml", sand, Fraction(1))])[:1]
+        runs += [level("tlpd", "buried_charge.yaml", sand, Fraction(1), k) for k in keys]
+        color = None
+        for r in runs:
+            for q, (_, col, what) in zip(ax, measures):
+                tag = PERTURB[r["pkey"]][0] if r["pkey"] else "as the example"
+                ln = q.plot(r["rows"][:, 0], r["rows"][:, col], styles.get(r["pkey"], "-"), color=color,
+                            label=f"{sand:g} mm, {tag}")
+                color = ln[0].get_color()
+                q.set_ylabel(f"{what} (mm)", fontsize=8)
+        for key, _, what in measures:
+            v = [r[key] for r in runs]
+            top = max(v)
+            sp = (top - min(v)) / top if top > 0 else float("nan")
+            print(f"perturbed, sand {sand:g} mm: {what} at 0.5 ms " + ", ".join("%.1f" % x for x in v)
+                  + f" mm (as the example, then {', '.join(keys)}); spread {100 * sp:.1f} % of the largest",
+                  flush=True)
+    finish_figure(fig, ax, "Buried 100 g C4, DOB 3 cm: the tlpd levels again with perturbations that change no "
+                  "spacing (charge mass +0.1 %, cfl 0.32 / 0.28)", a.perturb_png)
+    print(f"figure {a.perturb_png}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
@@ -164,6 +223,12 @@ def main():
     ap.add_argument("--full", action="store_true",
                     help="make validate: sand 7.5, 6, 5, 3.75, 3 mm with the charge as fine (r = 1; about 40 min CPU)")
     ap.add_argument("--png", default=os.path.join(HERE, "buried_charge.png"))
+    ap.add_argument("--perturb", default="",
+                    help="tlpd sand spacings (mm, charge as fine) to run again perturbed (README tenth pass)")
+    variants = ", ".join(f"{k} ({v[0]})" for k, v in PERTURB.items()).replace("%", "%%")  # argparse formats help
+    ap.add_argument("--perturb-variants", default="mass,cfl0.32,cfl0.28",
+                    help="perturbations of --perturb: " + variants)
+    ap.add_argument("--perturb-png", default=os.path.join(HERE, "buried_charge_perturb.png"))
     a = ap.parse_args()
     tlpd_opts = dict(kv.split("=", 1) for kv in a.tlpd.split(",") if kv.strip())
     exe = os.path.join(a.build, "bin", "ejecta")
@@ -177,35 +242,40 @@ def main():
     if a.full:
         fams = [("tlpd", "buried_charge.yaml", "7.5,6,5,3.75,3", Fraction(1))]
     fams.append(("sph", "buried_charge_sph.yaml", a.sph_sand, Fraction(1)))
-    results = []
-    for kind, src, levels, ratio in fams:
-        for sand in [float(q) for q in levels.split(",") if q.strip()]:
-            dq = sand * float(ratio)  # charge spacing, mm
-            name = f"bc_{kind}_{sand:g}mm_r{float(ratio):g}"
-            out = os.path.join(a.outdir, name + ".h5")
-            perf = run(exe, scaled_scene(os.path.join(ROOT, "examples", src), sand, dq, out, a.decohesion_reach,
-                                           tlpd_opts),
-                       os.path.join(a.outdir, name + ".yaml"), out, a.threads, a.reuse)
-            crash = perf.get("crash") if perf else None
-            if perf is None and not os.path.exists(out) and os.path.exists(out + ".partial"):
-                crash = "stopped (reused partial output)"
-            rows, n, steps, e = curve(out + ".partial" if crash else out)
-            # at 0.5 ms: all-soil height, coherent dome, highest within 30 mm, 90 % front (curve's columns)
-            h05, hc05, m05, q05 = (float("nan") if crash else float(np.interp(0.5, rows[:, 0], rows[:, c]))
-                                   for c in (1, 3, 5, 6))  # a stopped run has no frame at 0.5 ms
-            results.append(dict(kind=kind, sand=sand, ratio=ratio, dq=dq, rows=rows, n=n, steps=steps, bal=e, h05=h05,
-                                hc05=hc05, m05=m05, q05=q05, perf=perf, crash=crash))
-            mq = charge_mass(out + ".partial" if crash else out)
-            if mq is None:  # no checkpoint in the file: the lattice's own mass
-                mq = n.get("charge", 0) * (dq * 1e-3) ** 3 * 1601.0 * 1e3
-            r_mass = f"charge {mq:.2f} g of 25.0 g (quarter), "
-            ptxt = (f", CPU {perf['cpu']:.0f} s, max RSS {perf['maxrss_mb']:.0f} MB" if perf else ", reused")
-            print(f"{kind} charge {dq:g} mm, sand {sand:g} mm: particles {n}, {steps} steps, "
-                  f"{r_mass}height at 0.5 ms {h05:.1f} mm (coherent dome, >= 3 neighbours: {hc05:.1f} mm), "
-                  f"width {np.interp(0.5, rows[:, 0], rows[:, 2]) if not crash else float('nan'):.1f} mm, "
-                  f"within 30 mm of the axis: highest {m05:.1f} mm, 90 % front {q05:.1f} mm, "
-                  f"max |balance|/E0 {e:.2e}{ptxt}" + (f"; STOPPED at step {steps} of the last frame: {crash}"
-                                                        if crash else ""), flush=True)
+
+    def level(kind, src, sand, ratio, pkey=None):
+        """Runs (or reuses) one level, prints its line and returns its result; pkey: a PERTURB key."""
+        dq = sand * float(ratio)  # charge spacing, mm
+        name = f"bc_{kind}_{sand:g}mm_r{float(ratio):g}" + (f"_{pkey}" if pkey else "")
+        out = os.path.join(a.outdir, name + ".h5")
+        text = scaled_scene(os.path.join(ROOT, "examples", src), sand, dq, out, a.decohesion_reach, tlpd_opts)
+        perf = run(exe, perturbed(text, pkey) if pkey else text, os.path.join(a.outdir, name + ".yaml"), out,
+                   a.threads, a.reuse)
+        crash = perf.get("crash") if perf else None
+        if perf is None and not os.path.exists(out) and os.path.exists(out + ".partial"):
+            crash = "stopped (reused partial output)"
+        rows, n, steps, e = curve(out + ".partial" if crash else out)
+        # at 0.5 ms: all-soil height, coherent dome, highest within 30 mm, 90 % front (curve's columns)
+        h05, hc05, m05, q05 = (float("nan") if crash else float(np.interp(0.5, rows[:, 0], rows[:, c]))
+                               for c in (1, 3, 5, 6))  # a stopped run has no frame at 0.5 ms
+        r = dict(kind=kind, sand=sand, ratio=ratio, dq=dq, rows=rows, n=n, steps=steps, bal=e, h05=h05,
+                 hc05=hc05, m05=m05, q05=q05, perf=perf, crash=crash, pkey=pkey)
+        mq = charge_mass(out + ".partial" if crash else out)
+        if mq is None:  # no checkpoint in the file: the lattice's own mass
+            mq = n.get("charge", 0) * (dq * 1e-3) ** 3 * 1601.0 * 1e3
+        r_mass = f"charge {mq:.3f} g of 25.0 g (quarter), "
+        ptxt = (f", CPU {perf['cpu']:.0f} s, max RSS {perf['maxrss_mb']:.0f} MB" if perf else ", reused")
+        ptag = f" [{PERTURB[pkey][0]}]" if pkey else ""
+        print(f"{kind} charge {dq:g} mm, sand {sand:g} mm{ptag}: particles {n}, {steps} steps, "
+              f"{r_mass}height at 0.5 ms {h05:.1f} mm (coherent dome, >= 3 neighbours: {hc05:.1f} mm), "
+              f"width {np.interp(0.5, rows[:, 0], rows[:, 2]) if not crash else float('nan'):.1f} mm, "
+              f"within 30 mm of the axis: highest {m05:.1f} mm, 90 % front {q05:.1f} mm, "
+              f"max |balance|/E0 {e:.2e}{ptxt}" + (f"; STOPPED at step {steps} of the last frame: {crash}"
+                                                    if crash else ""), flush=True)
+        return r
+
+    results = [level(kind, src, sand, ratio) for kind, src, levels, ratio in fams
+               for sand in [float(q) for q in levels.split(",") if q.strip()]]
 
     fig, ax = plt.subplots(1, 4, figsize=(19, 4.2))
     for r in results:
@@ -231,6 +301,9 @@ def main():
     ax[3].set_title("90 % of it below (solid); open markers, dotted: its highest", fontsize=8)
     finish_figure(fig, ax, "Buried 100 g C4, DOB 3 cm: soil bubble, charge / near-field sand spacing in the legend "
                   "(no measured curve: Bergeron et al. 1998 not available)", a.png)
+
+    if a.perturb:
+        perturb_study(a, results, level, plt)
 
     ok, checked = True, 0
     for ratio in sorted({r["ratio"] for r in results if r["kind"] == "tlpd"}):
