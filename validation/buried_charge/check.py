@@ -23,7 +23,7 @@ the finest, for all soil and for the coherent dome.
 
     nice /usr/bin/python3 validation/buried_charge/check.py [--build build] [--sand 7.5,6,5]
         [--charge-ratio 1] [--sph-sand 6] [--outdir /tmp/bc] [--reuse] [--threads 1] [--full]
-        [--perturb 6,5 [--perturb-variants mass,cfl0.32,cfl0.28]]
+        [--perturb 6,5,3:mass [--perturb-variants mass,cfl0.32,cfl0.28]]
 
 --perturb (README "Tenth pass"): each listed tlpd level is run again with perturbations that change
 the physics by far less than a spacing does: the charge's mass +0.1 % (25.025 g), or the Courant
@@ -169,18 +169,30 @@ def finish_figure(fig, axes, title, png):
     fig.savefig(png, dpi=110)
 
 
-def perturb_study(a, results, level, plt):
-    """--perturb: each listed tlpd level (charge as fine as the sand) again with each perturbation;
+def perturb_plan(a):
+    """[(sand spacing, [PERTURB keys])] of --perturb: "S" takes every --perturb-variants, "S:k1+k2"
+    only those; exits with status 2 on an unknown key (before any run)."""
+    every = [k.strip() for k in a.perturb_variants.split(",") if k.strip()]
+    plan = []
+    for entry in [q.strip() for q in a.perturb.split(",") if q.strip()]:
+        keys = entry.split(":")[1].split("+") if ":" in entry else every
+        bad = [k for k in keys if k not in PERTURB]
+        if bad:
+            print(f"check.py: --perturb: unknown perturbation {bad} in {entry!r}; expected some of {list(PERTURB)}",
+                  file=sys.stderr)
+            sys.exit(2)
+        plan.append((float(entry.split(":")[0]), keys))
+    return plan
+
+
+def perturb_study(a, plan, results, level, plt):
+    """--perturb: each planned tlpd level (charge as fine as the sand) again with its perturbations;
     per level and measure the values at 0.5 ms and their spread (max - min over max); the figure."""
-    keys = [k.strip() for k in a.perturb_variants.split(",") if k.strip()]
-    bad = [k for k in keys if k not in PERTURB]
-    if bad:
-        sys.exit(f"--perturb-variants: unknown {bad}; expected some of {list(PERTURB)}")
     measures = (("h05", 1, "all soil, 2 dx window"), ("hc05", 3, "coherent dome"),
                 ("m05", 5, "highest within 30 mm"), ("q05", 6, "90 % front within 30 mm"))
     fig, ax = plt.subplots(1, len(measures), figsize=(19, 4.2))
     styles = {None: "-", "mass": "--", "cfl0.32": ":", "cfl0.28": "-."}
-    for sand in [float(q) for q in a.perturb.split(",") if q.strip()]:
+    for sand, keys in plan:
         base = [r for r in results if r["kind"] == "tlpd" and r["ratio"] == 1 and r["sand"] == sand]
         runs = (base or [level("tlpd", "buried_charge.yaml", sand, Fraction(1))])[:1]
         runs += [level("tlpd", "buried_charge.yaml", sand, Fraction(1), k) for k in keys]
@@ -224,13 +236,15 @@ def main():
                     help="make validate: sand 7.5, 6, 5, 3.75, 3 mm with the charge as fine (r = 1; about 40 min CPU)")
     ap.add_argument("--png", default=os.path.join(HERE, "buried_charge.png"))
     ap.add_argument("--perturb", default="",
-                    help="tlpd sand spacings (mm, charge as fine) to run again perturbed (README tenth pass)")
+                    help="tlpd sand spacings (mm, charge as fine) to run again perturbed (README tenth pass); "
+                         "S:k1+k2 runs level S with only those perturbations")
     variants = ", ".join(f"{k} ({v[0]})" for k, v in PERTURB.items()).replace("%", "%%")  # argparse formats help
     ap.add_argument("--perturb-variants", default="mass,cfl0.32,cfl0.28",
                     help="perturbations of --perturb: " + variants)
     ap.add_argument("--perturb-png", default=os.path.join(HERE, "buried_charge_perturb.png"))
     a = ap.parse_args()
     tlpd_opts = dict(kv.split("=", 1) for kv in a.tlpd.split(",") if kv.strip())
+    plan = perturb_plan(a)
     exe = os.path.join(a.build, "bin", "ejecta")
     os.makedirs(a.outdir, exist_ok=True)
     import matplotlib
@@ -302,8 +316,8 @@ def main():
     finish_figure(fig, ax, "Buried 100 g C4, DOB 3 cm: soil bubble, charge / near-field sand spacing in the legend "
                   "(no measured curve: Bergeron et al. 1998 not available)", a.png)
 
-    if a.perturb:
-        perturb_study(a, results, level, plt)
+    if plan:
+        perturb_study(a, plan, results, level, plt)
 
     ok, checked = True, 0
     for ratio in sorted({r["ratio"] for r in results if r["kind"] == "tlpd"}):
