@@ -177,11 +177,15 @@ def perturb_plan(a):
     for entry in [q.strip() for q in a.perturb.split(",") if q.strip()]:
         keys = entry.split(":")[1].split("+") if ":" in entry else every
         bad = [k for k in keys if k not in PERTURB]
+        try:
+            sand = float(entry.split(":")[0])
+        except ValueError:
+            sand, bad = None, bad + [entry.split(":")[0] + " (not a spacing in mm)"]
         if bad:
-            print(f"check.py: --perturb: unknown perturbation {bad} in {entry!r}; expected some of {list(PERTURB)}",
-                  file=sys.stderr)
+            print(f"check.py: --perturb: unknown {bad} in {entry!r}; expected S or S:k1+k2 with S a spacing in mm "
+                  f"and k one of {list(PERTURB)}", file=sys.stderr)
             sys.exit(2)
-        plan.append((float(entry.split(":")[0]), keys))
+        plan.append((sand, keys))
     return plan
 
 
