@@ -72,17 +72,18 @@ def scaled_scene(src, sand_mm, charge_mm, out, reach=None, tlpd_opts=None):
     return t
 
 
-# --perturb: key -> (what, pattern, replacement); each changes one number of the example's text
+# --perturb: key -> (what, pattern, replacement, line style in the figure); each changes one number
+# of the example's text
 PERTURB = {
-    "mass": ("charge mass +0.1 %", r"\n    mass: 25 g", "\n    mass: 25.025 g"),
-    "cfl0.32": ("cfl 0.32", r"cfl: 0\.3\}", "cfl: 0.32}"),
-    "cfl0.28": ("cfl 0.28", r"cfl: 0\.3\}", "cfl: 0.28}"),
+    "mass": ("charge mass +0.1 %", r"\n    mass: 25 g", "\n    mass: 25.025 g", "--"),
+    "cfl0.32": ("cfl 0.32", r"cfl: 0\.3\}", "cfl: 0.32}", ":"),
+    "cfl0.28": ("cfl 0.28", r"cfl: 0\.3\}", "cfl: 0.28}", "-."),
 }
 
 
 def perturbed(text, key):
     """The scene text with PERTURB[key]'s one substitution (exactly one match)."""
-    _, pat, rep = PERTURB[key]
+    _, pat, rep, _ = PERTURB[key]
     t, n = re.subn(pat, rep, text)
     assert n == 1, f"perturbation {key}: {n} matches of {pat!r}"
     return t
@@ -115,6 +116,12 @@ def surface(path, soil="soil"):
     z_s = float(x_init[:, 2].max())
     top = x_init[x_init[:, 2] > z_s - 1e-9 - 0.1 * (x_init[:, 2].max() - x_init[:, 2].min())]
     return z_s, bubble.spacing(top)
+
+
+# curve()'s columns (fine.py's CSV header), and the column of each height at 0.5 ms that a level reports
+CURVE_COLS = ("t_ms", "height_mm", "width_mm", "coherent_height_mm", "coherent_width_mm", "axis30_highest_mm",
+              "axis30_front90_mm")
+AT05 = {"h05": 1, "hc05": 3, "m05": 5, "q05": 6}
 
 
 def curve(path, soil="soil", ref=None):
@@ -175,12 +182,13 @@ def perturb_plan(a):
     every = [k.strip() for k in a.perturb_variants.split(",") if k.strip()]
     plan = []
     for entry in [q.strip() for q in a.perturb.split(",") if q.strip()]:
+        head = entry.split(":")[0]
         keys = entry.split(":")[1].split("+") if ":" in entry else every
         bad = [k for k in keys if k not in PERTURB]
         try:
-            sand = float(entry.split(":")[0])
+            sand = float(head)
         except ValueError:
-            sand, bad = None, bad + [entry.split(":")[0] + " (not a spacing in mm)"]
+            bad.append(head + " (not a spacing in mm)")
         if bad:
             print(f"check.py: --perturb: unknown {bad} in {entry!r}; expected S or S:k1+k2 with S a spacing in mm "
                   f"and k one of {list(PERTURB)}", file=sys.stderr)
@@ -192,23 +200,22 @@ def perturb_plan(a):
 def perturb_study(a, plan, results, level, plt):
     """--perturb: each planned tlpd level (charge as fine as the sand) again with its perturbations;
     per level and measure the values at 0.5 ms and their spread (max - min over max); the figure."""
-    measures = (("h05", 1, "all soil, 2 dx window"), ("hc05", 3, "coherent dome"),
-                ("m05", 5, "highest within 30 mm"), ("q05", 6, "90 % front within 30 mm"))
+    measures = (("h05", "all soil, 2 dx window"), ("hc05", "coherent dome"), ("m05", "highest within 30 mm"),
+                ("q05", "90 % front within 30 mm"))
     fig, ax = plt.subplots(1, len(measures), figsize=(19, 4.2))
-    styles = {None: "-", "mass": "--", "cfl0.32": ":", "cfl0.28": "-."}
+    for q, (_, what) in zip(ax, measures):
+        q.set_ylabel(f"{what} (mm)", fontsize=8)
     for sand, keys in plan:
         base = [r for r in results if r["kind"] == "tlpd" and r["ratio"] == 1 and r["sand"] == sand]
         runs = (base or [level("tlpd", "buried_charge.yaml", sand, Fraction(1))])[:1]
         runs += [level("tlpd", "buried_charge.yaml", sand, Fraction(1), k) for k in keys]
         color = None
         for r in runs:
-            for q, (_, col, what) in zip(ax, measures):
-                tag = PERTURB[r["pkey"]][0] if r["pkey"] else "as the example"
-                ln = q.plot(r["rows"][:, 0], r["rows"][:, col], styles.get(r["pkey"], "-"), color=color,
-                            label=f"{sand:g} mm, {tag}")
+            tag, style = (PERTURB[r["pkey"]][0], PERTURB[r["pkey"]][3]) if r["pkey"] else ("as the example", "-")
+            for q, (key, _) in zip(ax, measures):
+                ln = q.plot(r["rows"][:, 0], r["rows"][:, AT05[key]], style, color=color, label=f"{sand:g} mm, {tag}")
                 color = ln[0].get_color()
-                q.set_ylabel(f"{what} (mm)", fontsize=8)
-        for key, _, what in measures:
+        for key, what in measures:
             v = [r[key] for r in runs]
             top = max(v)
             sp = (top - min(v)) / top if top > 0 else float("nan")
@@ -273,11 +280,12 @@ def main():
         if perf is None and not os.path.exists(out) and os.path.exists(out + ".partial"):
             crash = "stopped (reused partial output)"
         rows, n, steps, e = curve(out + ".partial" if crash else out)
-        # at 0.5 ms: all-soil height, coherent dome, highest within 30 mm, 90 % front (curve's columns)
-        h05, hc05, m05, q05 = (float("nan") if crash else float(np.interp(0.5, rows[:, 0], rows[:, c]))
-                               for c in (1, 3, 5, 6))  # a stopped run has no frame at 0.5 ms
-        r = dict(kind=kind, sand=sand, ratio=ratio, dq=dq, rows=rows, n=n, steps=steps, bal=e, h05=h05,
-                 hc05=hc05, m05=m05, q05=q05, perf=perf, crash=crash, pkey=pkey)
+        # at 0.5 ms: all-soil height, coherent dome, highest within 30 mm, 90 % front (a stopped run has
+        # no frame at 0.5 ms)
+        r = dict(kind=kind, sand=sand, ratio=ratio, dq=dq, rows=rows, n=n, steps=steps, bal=e, perf=perf,
+                 crash=crash, pkey=pkey)
+        r.update({k: float("nan") if crash else float(np.interp(0.5, rows[:, 0], rows[:, c])) for k, c in AT05.items()})
+        h05, hc05, m05, q05 = (r[k] for k in ("h05", "hc05", "m05", "q05"))
         mq = charge_mass(out + ".partial" if crash else out)
         if mq is None:  # no checkpoint in the file: the lattice's own mass
             mq = n.get("charge", 0) * (dq * 1e-3) ** 3 * 1601.0 * 1e3

@@ -70,9 +70,8 @@ def curve_chain(path):
     return rows, n, steps, bal
 
 
-# CSV columns, check.curve's order (an earlier CSV without the last two reads them as nan)
-COLS = ("t_ms", "height_mm", "width_mm", "coherent_height_mm", "coherent_width_mm", "axis30_highest_mm",
-        "axis30_front90_mm")
+# CSV columns: check.curve's (an earlier CSV without the last two reads them as nan)
+COLS = check.CURVE_COLS
 
 
 def prior_curves(csv_path):
