@@ -155,6 +155,40 @@ START_TEST(test_temperature)
 }
 END_TEST
 
+/* temperature: internal_energy: T = T0 + chi e / cp from the specific internal energy the method
+ * passes (the driver holds e fixed, as a method would between its own energy updates): with e
+ * chosen so that T = 800 K, first yield in uniaxial stress is the isothermal 800 K value of
+ * test_temperature; plastic work does not add to T; a method that passes no e is refused */
+START_TEST(test_temperature_internal_energy)
+{
+  mpd m;
+  jc_open(&m, 0, 452);
+  mpd_set_enum(&m, "temperature", "internal_energy");
+  mpd_create(&m);
+  m.e = (800.0 - 293) * 452 / 0.9;
+  const double fac = 1 - pow((800.0 - 293) / (1811 - 293), M_);
+  const int ctrl[6] = {0, 1, 1, 0, 0, 0};
+  const ej_real target[6] = {0};
+  double s_first = 0;
+  for (int n = 1; n <= 80; ++n) {
+    ej_real d[6] = {1, -0.5, -0.5, 0, 0, 0};
+    mpd_step_mixed(&m, d, ctrl, target, 1e-5, G_);
+    if (s_first == 0 && mpd_hist(&m, "eps_p") > 0) {
+      s_first = m.stress[0];
+      const double ex = (A_ + B_ * pow(mpd_hist(&m, "eps_p"), N_)) * fac;
+      ck_assert_msg(mpd_relerr(s_first, ex) < 1e-10, "%.12g vs %.12g", s_first, ex);
+    }
+  }
+  ck_assert(s_first > 0 && m.wp_total > 0);
+  ck_assert_double_eq_tol(mpd_hist(&m, "temperature"), 800, 1e-9);
+  /* no internal energy passed: refused */
+  ej_mat_batch b = {.n = 1, .dt = 1e-5, .rho = &m.rho, .e = NULL, .d = target, .stress = m.stress, .hist = m.hist};
+  ck_assert_int_eq(m.ops->update(m.state, &b), EJ_ERR_UNSUPPORTED);
+  ej_error_clear();
+  mpd_close(&m);
+}
+END_TEST
+
 /* JC failure: uniaxial stress tension (triaxiality 1/3): eps_f = D1 + D2 exp(D3/3); damage =
  * eps_p / eps_f; failed set on the step where it reaches 1, then no deviator and no tension */
 START_TEST(test_failure)
@@ -203,6 +237,7 @@ int main(void)
   tcase_add_test(tc, test_rate_factor);
   tcase_add_test(tc, test_rate_total);
   tcase_add_test(tc, test_temperature);
+  tcase_add_test(tc, test_temperature_internal_energy);
   tcase_add_test(tc, test_failure);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);

@@ -55,6 +55,9 @@ VARIANTS = {
     "xsph": ("XSPH 0.5 in the bar", [("    art_stress: false\n", "    art_stress: false\n    xsph: 0.5\n")]),
     "balsara": ("Balsara viscosity switch in the bar (visc_switch: balsara): Pi_ij x (f_i + f_j)/2",
                 [("    art_stress: false\n", "    art_stress: false\n    visc_switch: balsara\n")]),
+    "temp_work": ("JC temperature from the plastic work alone (temperature: plastic_work, the scene before "
+                  "2026-11-29): the artificial viscosity's heating does not count",
+                  [("    temperature: internal_energy\n", "    temperature: plastic_work\n")]),
     "no_renorm": ("continuity without the divergence renormalisation (renormalize: false)",
                   [("    art_stress: false\n", "    art_stress: false\n    renormalize: false\n")]),
 }

@@ -9,8 +9,12 @@
  *   sigma_eq_tr - 3G deps = sigma_y(eps_p,n + deps, deps/dt, T_n)
  * `rate: total` (option, issue 6 diagnostic) uses instead the step's equivalent total deviatoric
  * strain rate sqrt(2/3 d':d') in the rate term, in the elastic check as well.
- * Temperature (digest 001 §2.3 issue 3: the paper gives no thermal model):
- *   T += chi sigma_y deps / (rho c_p), chi the Taylor-Quinney factor (0.9), T_n in the flow stress.
+ * Temperature (digest 001 §2.3 issue 3: the paper gives no thermal model), `temperature`:
+ *   plastic_work (default): T += chi sigma_y deps / (rho c_p), chi the Taylor-Quinney factor (0.9),
+ *     T_n in the flow stress;
+ *   internal_energy: T_n = T0 + chi e_n / c_p from the method's specific internal energy (e = 0 at
+ *     T0), which holds every dissipated energy: the plastic work and also the artificial
+ *     viscosity's heating, the adiabatic assumption of hydrocodes that take T from the energy.
  * Failure (Johnson & Cook 1985), optional:
  *   eps_f = (D1 + D2 exp(D3 sigma*)) (1 + D4 ln(max(epsdot_p/eps_dot0, 1))) (1 + D5 T*),
  *   sigma* = mean stress / sigma_eq (tension positive), D += deps_p / eps_f;
@@ -29,6 +33,7 @@ typedef struct jc_config {
   ej_real D1, D2, D3, D4, D5;
   int volumetric;
   int rate;
+  int temperature;
 } jc_config;
 
 typedef struct jc_state {
@@ -39,6 +44,8 @@ typedef struct jc_state {
 enum { JC_VOL_AUTO, JC_VOL_ELASTIC, JC_VOL_EOS };
 enum { JC_RATE_PLASTIC, JC_RATE_TOTAL };
 static const char *const jc_rate_choices[] = {"plastic", "total", NULL};
+enum { JC_TEMP_PLASTIC_WORK, JC_TEMP_INTERNAL_ENERGY };
+static const char *const jc_temp_choices[] = {"plastic_work", "internal_energy", NULL};
 enum { JC_H_EPS_P, JC_H_T, JC_H_DAMAGE, JC_NHIST };
 static const char *const jc_vol_choices[] = {"auto", "elastic", "eos", NULL};
 static const char *const jc_hist_names[] = {"eps_p", "temperature", "damage", NULL};
@@ -71,6 +78,10 @@ static const ej_param jc_params[] = {
     EJ_PARAM_ENUM(jc_config, rate, jc_rate_choices, "plastic",
                   "Strain rate of the rate term: plastic (deps_p/dt, digest 001 §2.3 issue 6) or total (equivalent "
                   "deviatoric strain rate sqrt(2/3 d':d') of the step, also in the elastic check)."),
+    EJ_PARAM_ENUM(jc_config, temperature, jc_temp_choices, "plastic_work",
+                  "Temperature of T*: plastic_work (T += taylor_quinney sigma_y deps_p / (rho cp)) or internal_energy "
+                  "(T = T0 + taylor_quinney e / cp from the specific internal energy e of the method, e = 0 at T0: "
+                  "the plastic work plus the artificial viscosity's heating)."),
     {0}};
 
 static ej_err jc_check(const void *config, ej_diag *diag)
@@ -162,6 +173,9 @@ static ej_err jc_update(const void *state, ej_mat_batch *b)
   EJ_ENSURE(!use_eos || b->p, EJ_ERR_UNSUPPORTED,
             "johnson_cook: volumetric: eos needs an equation of state on the material (no pressure passed)");
   EJ_ENSURE(b->dt > 0, EJ_ERR_ARG, "johnson_cook: dt must be positive");
+  const bool T_from_e = c->temperature == JC_TEMP_INTERNAL_ENERGY && c->cp > 0;
+  EJ_ENSURE(!T_from_e || b->e, EJ_ERR_UNSUPPORTED,
+            "johnson_cook: temperature: internal_energy needs the specific internal energy (none passed)");
   for (ej_idx i = 0; i < b->n; ++i) {
     ej_real *sig = b->stress + 6 * (size_t)i;
     const ej_real *d = b->d + 6 * (size_t)i;
@@ -177,6 +191,7 @@ static ej_err jc_update(const void *state, ej_mat_batch *b)
       if (b->c) b->c[i] = mp_sound_speed(K, G, b->rho[i]);
       continue;
     }
+    if (T_from_e) *T = c->T0 + c->taylor_quinney * b->e[i] / c->cp;
     for (int k = 0; k < 6; ++k) str[k] = sn[k] + 2 * G * b->dt * dd[k];
     const ej_real seq = sqrt(1.5 * ej_s6_ddot(str, str));
     const ej_real ts = jc_tstar(c, *T);
@@ -191,7 +206,7 @@ static ej_err jc_update(const void *state, ej_mat_batch *b)
     for (int j = 0; j < 6; ++j) sig[j] = k * str[j];
     for (int j = 0; j < 3; ++j) sig[j] += mean_el;
     const ej_real work = sy * dep; /* s : de_p per unit volume */
-    if (c->cp > 0 && b->rho[i] > 0) *T += c->taylor_quinney * work / (b->rho[i] * c->cp);
+    if (!T_from_e && c->cp > 0 && b->rho[i] > 0) *T += c->taylor_quinney * work / (b->rho[i] * c->cp);
     if (c->failure && dep > 0) {
       const ej_real triax = sy > 0 ? mean_el / sy : 0.0;
       const ej_real ef = (c->D1 + c->D2 * exp(c->D3 * triax)) * (1 + c->D4 * jc_rate_log(c, dep / b->dt)) *
@@ -220,7 +235,7 @@ static const ej_material_ops jc_ops = {
     .name = "johnson_cook",
     .summary = "Johnson-Cook flow stress, adiabatic heating, optional Johnson-Cook failure",
     .doc = "Radial return (implicit in the plastic strain increment) to (A + B eps_p^n)(1 + C ln epsdot*)(1 - T*^m); "
-           "temperature from the plastic work (Taylor-Quinney); JC damage D1..D5 sets failed when D >= 1. Mean "
+           "temperature from the plastic work (Taylor-Quinney) or the internal energy; JC damage D1..D5 sets failed when D >= 1. Mean "
            "stress from K tr(d) or the attached EOS. History: eps_p, temperature, damage.",
     .params = jc_params,
     .config_size = sizeof(jc_config),
