@@ -986,6 +986,12 @@ typedef struct ej_inter_ctx {
   bool reverse; /* b's side of a both_ways interaction */
 } ej_inter_ctx;
 
+static ej_err ej_finish_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
+{
+  (void)sim, (void)ctx, (void)c;
+  return s->mops->finish(s->mstate, s, r);
+}
+
 static ej_err ej_inter_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
 {
   (void)sim, (void)s, (void)c;
@@ -1103,6 +1109,12 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
   for (int k = 0; k < sim->n_inter; ++k) {
     ej_inter *in = &sim->inter[k];
     for (int pass = 0; pass < ej_inter_passes(in); ++pass) EJ_TRY(ej_inter_pass(sim, in, pass));
+  }
+  /* Methods' finish (ABI 1.6): rates that need the interactions' shares. */
+  for (int i = 0; i < sim->n_sets; ++i) {
+    ej_set *s = sim->sets[i];
+    if (EJ_HAS_OP(s->mops, ej_method_ops, finish) && s->mops->finish)
+      EJ_TRY(ej_for_chunks(sim, s, ej_finish_chunk, NULL));
   }
   if (!in_step)
     for (int i = 0; i < sim->n_sets; ++i) {

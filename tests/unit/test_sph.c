@@ -211,7 +211,8 @@ START_TEST(test_params_and_ops)
 {
   sph_fix f;
   fix_open(&f, 3, 1);
-  const char *names[] = {"kernel", "continuity", "density", "renormalize", "correction", "gradient", "shape_form",
+  const char *names[] = {"kernel", "continuity", "density", "renormalize", "renormalize_interfaces", "correction",
+                         "gradient", "shape_form",
                          "shape_viscosity", "shape_energy", "shape_continuity",
                          "shape_rcond_min", "h_factor", "h_min", "h_max", "variable_h", "alpha", "beta", "eta",
                          "rho_min", "drho_max", "strength", "stress_rate", "art_stress", "art_eps", "art_n", "xsph",

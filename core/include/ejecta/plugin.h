@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 5 /* members appended to an info or ops struct        */
+#define EJ_ABI_MINOR 6 /* members appended to an info or ops struct        */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -423,6 +423,12 @@ typedef struct ej_method_ops {
    * too: two parallel regions fewer per step, same results. false (or an older table): post_step
    * runs in a region of its own after every set's kick. */
   bool post_step_local;
+  /* --- ABI 1.6. After every interaction of a force evaluation (so after the method's own
+   * passes and every interaction's passes), before the core applies gravity and constraints:
+   * completes rates that need the interactions' shares too (sph's continuity renormalised over
+   * its own and the other sets' neighbours, `renormalize_interfaces`). Writes only particles in
+   * r; reads only particles in r. May be NULL. */
+  ej_err (*finish)(void *state, ej_set *set, ej_range r);
 } ej_method_ops;
 #define EJ_PASS_POST_STEP (-1) /* pass_writes: the fields post_step writes */
 

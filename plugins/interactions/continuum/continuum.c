@@ -54,6 +54,8 @@ static ej_err continuum_create(const void *config, ej_set *a, ej_set *b, void **
 {
   const continuum_config *c = config;
   EJ_ENSURE(b && a != b, EJ_ERR_INTERNAL, "continuum: the scene check lets only two different sets through");
+  for (int k = 0; k < 2; ++k)
+    EJ_TRY(cpl_check_ren(k ? b : a, "continuum", c->continuity == CPL_CONT_VOLUME, "continuity: volume"));
   continuum_state *s = ej_calloc(1, sizeof *s);
   EJ_ENSURE(s, EJ_ERR_MEM, "out of memory");
   s->P = (cpl_params){.kernel = c->kernel, .form = c->form, .continuity = c->continuity, .alpha = c->alpha,

@@ -41,6 +41,7 @@ typedef struct cpl_side {
   int dim;
   const ej_real *x, *v, *m, *vol0, *rho, *p, *stress, *c, *h, *e;
   ej_real *a, *rho_dot, *e_dot;
+  ej_real *ren_div, *ren_norm; /* sph renormalize_interfaces: the raw divergence and norm sums */
   ej_real c_fallback;  /* sound speed when the set has no c field */
   ej_real h_fallback;  /* h_factor, when the set has no h field */
   int spherical;       /* sph geometry: spherical (1D, x = r) with spherical_energy: pair (pdv_pair) */
@@ -59,6 +60,16 @@ typedef struct cpl_params {
   ej_real h_factor;
   ej_real conductivity; /* artificial conductivity alpha_u (Price 2008) on the interface pairs; 0: off */
 } cpl_params;
+
+/* A set with sph `renormalize_interfaces` (fields ren_div, ren_norm) takes the interface pairs'
+ * volume-form continuity into its renormalised divergence (sph finish); only the volume form and
+ * continuity weight 1 keep that divergence consistent, so other couplings refuse it. */
+static inline ej_err cpl_check_ren(const ej_set *set, const char *who, bool ok, const char *why)
+{
+  if (ej_set_field(set, "ren_norm") && !ok)
+    EJ_FAIL(EJ_ERR_INPUT, "%s: set '%s' has sph renormalize_interfaces, which needs %s", who, ej_set_name(set), why);
+  return EJ_OK;
+}
 
 /* Binds the fields of a set; EJ_ERR_INPUT names what is missing. */
 static inline ej_err cpl_bind(cpl_side *s, ej_set *set, const char *who, ej_real h_factor)
@@ -83,6 +94,8 @@ static inline ej_err cpl_bind(cpl_side *s, ej_set *set, const char *who, ej_real
   s->rho_dot = ej_set_field(set, "rho_dot");
   s->e_dot = ej_set_field(set, "e_dot");
   s->e = ej_set_field(set, "e");
+  s->ren_div = ej_set_field(set, "ren_div");
+  s->ren_norm = ej_set_field(set, "ren_norm");
   s->h_fallback = h_factor;
   if (!s->rho)
     EJ_FAIL(EJ_ERR_INPUT, "%s: set '%s' has no density field 'rho' (its method does not publish one)", who,
@@ -151,7 +164,7 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
     cpl_stress(A, i, si);
     const ej_real rho_i = A->rho[i], irho2_i = 1.0 / (rho_i * rho_i), c_i = cpl_c(A, i);
     (void)irho2_i;
-    ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0, drho_m = 0, dq = 0;
+    ej_real acc[3] = {0, 0, 0}, de = 0, drho = 0, drho_m = 0, dq = 0, dnorm = 0;
     /* artificial conductivity across the interface (README "Artificial conductivity"; Price,
      * J. Comput. Phys. 227 (2008) 10040, section 4): both sides need an internal energy e */
     const int cond = P->conductivity > 0 && A->e && B->e && A->e_dot;
@@ -238,14 +251,19 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
                             inv_ai2, dwdr);
       }
       const ej_real vg = dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2];
-      if (psi < 0) drho -= (mj / B->rho[j]) * vg;
+      if (psi < 0) drho -= (mj / B->rho[j]) * vg, dnorm += (mj / B->rho[j]) * rr * dwdr;
       else if (isinf(psi)) drho_m -= mj * vg;
       else drho_m -= (rho_i + psi * B->rho[j]) / ((1 + psi) * B->rho[j]) * mj * vg; /* 001 Eq 4 */
     }
     for (int q = 0; q < 3; ++q) A->a[3 * i + q] += acc[q];
     if (A->e_dot) A->e_dot[i] += de;
     if (cond) A->e_dot[i] += P->conductivity * dq;
-    if (A->rho_dot) A->rho_dot[i] += wc * (rho_i * drho + drho_m);
+    if (A->ren_norm) { /* sph renormalize_interfaces: sph's finish renormalises own + these pairs */
+      A->ren_div[i] += wc * drho, A->ren_norm[i] += wc * dnorm;
+      if (A->rho_dot) A->rho_dot[i] += wc * drho_m;
+    } else if (A->rho_dot) {
+      A->rho_dot[i] += wc * (rho_i * drho + drho_m);
+    }
   }
 }
 

@@ -145,6 +145,9 @@ static ej_err pd_sph_create(const void *config, ej_set *a, ej_set *b, void **sta
             "pd_sph couples one peridynamic set (publishing a deformation gradient F, e.g. tlpd) with one fluid "
             "set; sets '%s' and '%s' %s",
             ej_set_name(a), ej_set_name(b), fa ? "both publish F" : "publish no F");
+  EJ_TRY(cpl_check_ren(fa ? b : a, "pd_sph",
+                       c->form == PDSPH_PAIRWISE && (c->pair_stress == PDSPH_PS_BOTH || c->pair_stress == PDSPH_PS_FLUID),
+                       "form: pairwise with pair_stress: both or fluid (owned counts the solid's neighbours twice)"));
   pd_sph_state *s = ej_calloc(1, sizeof *s);
   EJ_ENSURE(s, EJ_ERR_MEM, "out of memory");
   s->cfg = *c;

@@ -26,6 +26,7 @@ typedef struct sph_config {
   int continuity;
   int density;
   bool renormalize;
+  bool renormalize_interfaces;
   bool correction;
   int gradient;
   int shape_form;
@@ -90,6 +91,12 @@ static const ej_param sph_params[] = {
                   "Divide the discrete velocity divergence of the continuity equation by the discrete "
                   "divergence of x over dim, so that uniform compression and expansion are exact (the "
                   "density stays consistent with the particle volumes through shocks)."),
+    EJ_PARAM_BOOL(sph_config, renormalize_interfaces, 0,
+                  "With renormalize: the divergence and the renormalisation sum also take the neighbours of "
+                  "other sets that a continuum or pd_sph (pair_stress both or fluid) interaction couples, so the "
+                  "factor is dim over the sum over all neighbours (README \"Renormalisation across interfaces\"): "
+                  "a gas next to another set then expands and compresses consistently (volume continuity, kernel "
+                  "gradient)."),
     EJ_PARAM_BOOL(sph_config, correction, 0,
                   "Kernel gradient correction (Bonet & Lok 1999) in the conservative form "
                   "G_ij = (L_i + L_j)/2 grad_i W_ij: linear fields exact on any particle arrangement "
@@ -250,6 +257,19 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
          .doc = "Steps in which L_i was ill-conditioned and the uncorrected gradient was used."},
     };
     for (size_t k = 0; k < sizeof corr / sizeof corr[0]; ++k) EJ_TRY(ej_decl_field(d, &corr[k]));
+  }
+  if (cfg->renormalize_interfaces) {
+    /* README "Renormalisation across interfaces": pass 2 sets them for its own neighbours,
+     * interactions add their pairs, finish applies the factor */
+    static const ej_field_decl ren[] = {
+        {.name = "ren_div", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "1/s",
+         .doc = "Unrenormalised velocity divergence sum_j V_j (v_i - v_j) . grad_i W_ij over the set's own and "
+                "the coupled sets' neighbours."},
+        {.name = "ren_norm", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "1",
+         .doc = "Renormalisation sum sum_j V_j r_ij dW/dr (-dim for an exact quadrature) over the same "
+                "neighbours."},
+    };
+    for (size_t k = 0; k < sizeof ren / sizeof ren[0]; ++k) EJ_TRY(ej_decl_field(d, &ren[k]));
   }
   if (cfg->gradient == SPH_GRAD_SHAPE) {
     static const ej_field_decl shape[] = {
@@ -576,6 +596,7 @@ typedef struct sph_pair_args {
   const ej_idx *kept;    /* shape tensor: the shape pass's kept neighbours (sph_state.kept), or NULL */
   const int32_t *kept_n; /* their counts per row (-1: not kept) */
   ej_real *a, *rho_dot, *e_dot, *w_dot, *mu_max;
+  ej_real *ren_div, *ren_norm; /* renormalize_interfaces: the raw sums for finish (else NULL) */
   const ej_off *off;
   const ej_idx *idx;
   ej_real alpha, beta, eta2;
@@ -874,6 +895,13 @@ static inline SPH_ALWAYS_INLINE void sph_row_store(const sph_pair_args *A, ej_id
   A->a[3 * i] += ax;
   if (dim > 1) A->a[3 * i + 1] += ay;
   if (dim > 2) A->a[3 * i + 2] += az;
+  if (A->ren_norm) { /* renormalize_interfaces: the factor over every set's neighbours, in finish */
+    A->ren_div[i] = drho, A->ren_norm[i] = norm;
+    A->e_dot[i] += 0.5 * de;
+    A->w_dot[i] += 0.5 * dw;
+    A->mu_max[i] = mumax;
+    return;
+  }
   if (ren && norm < 0.0) {
     ej_real fac = -(ej_real)dim / (volume_form ? norm : norm / rhoi);
     fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
@@ -1371,7 +1399,8 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
       .visc_kernel = s->cfg.shape_viscosity == SPH_SHAPE_VISC_KERNEL,
       .energy_own = s->cfg.shape_energy == SPH_SHAPE_ENERGY_OWN,
       .cont_sym = s->cfg.shape_continuity == SPH_SHAPE_CONT_SYMMETRIC,
-      .kept = s->kept && ej_set_count(set) <= s->kept_cap ? s->kept : NULL, .kept_n = s->kept_n};
+      .kept = s->kept && ej_set_count(set) <= s->kept_cap ? s->kept : NULL, .kept_n = s->kept_n,
+      .ren_div = ej_set_field(set, "ren_div"), .ren_norm = ej_set_field(set, "ren_norm")};
   EJ_ENSURE(A.x && A.v && A.m && A.rho && A.p_rho2 && A.c && A.h && A.w_cont && A.a && A.rho_dot && A.e_dot && A.w_dot &&
                 A.mu_max,
             EJ_ERR_INTERNAL, "set '%s': sph fields missing", s->set_name);
@@ -2287,8 +2316,42 @@ static ej_err sph_stable_dt(void *state, const ej_set *set, ej_range r, ej_real 
 
 /* ------------------------------------------------------------------ registration */
 
+/* renormalize_interfaces (README "Renormalisation across interfaces"): the continuity rate
+ * rho_i fac sum_j V_j (v_i - v_j) . grad_i W_ij with fac = -dim / sum_j V_j r_ij dW/dr over the
+ * set's own neighbours (pass 2) and the coupled sets' (continuum, pd_sph), clamped as in
+ * sph_row_store; the same operations as sph_row_store's for a particle without other-set pairs. */
+static ej_err sph_finish(void *state, ej_set *set, ej_range r)
+{
+  const sph_state *s = state;
+  if (!s->cfg.renormalize_interfaces) return EJ_OK;
+  const ej_real *ren_div = ej_set_field(set, "ren_div"), *ren_norm = ej_set_field(set, "ren_norm");
+  const ej_real *rho = ej_set_field(set, "rho");
+  ej_real *rho_dot = ej_set_field(set, "rho_dot");
+  EJ_ENSURE(ren_div && ren_norm && rho && rho_dot, EJ_ERR_INTERNAL, "set '%s': sph renormalisation fields missing",
+            s->set_name);
+  const ej_real dim = (ej_real)s->dim;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    ej_real drho = ren_div[i];
+    const ej_real norm = ren_norm[i];
+    if (norm < 0.0) {
+      ej_real fac = -dim / norm;
+      fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
+      drho *= fac;
+    }
+    rho_dot[i] += rho[i] * drho;
+  }
+  return EJ_OK;
+}
+
 static ej_err sph_check_config(const void *config, ej_diag *diag)
 {
+  const sph_config *cr = config;
+  if (cr->renormalize_interfaces &&
+      (!cr->renormalize || cr->correction || cr->gradient != SPH_GRAD_KERNEL || cr->density != SPH_DENS_CONTINUITY ||
+       cr->continuity != SPH_CONT_VOLUME || cr->strength || cr->geometry != SPH_GEOM_PLANAR))
+    return ej_diag_error(diag, "renormalize_interfaces",
+                         "renormalize_interfaces needs renormalize: true with the plain kernel gradient, "
+                         "density: continuity, continuity: volume, strength: false and geometry: planar");
   const sph_config *cfg = config;
   /* geometry: spherical supports the kernel-gradient gas path (its dimension: 1 is checked in create,
    * which sees the dimension) */
@@ -2368,6 +2431,7 @@ static const ej_method_ops sph_ops = {
     .n_passes = 4,
     .compute = sph_compute,
     .stable_dt = sph_stable_dt,
+    .finish = sph_finish,
     .post_step = sph_post_step,
     .post_step_local = true, /* own particles: the density floor and the XSPH move */
     .counters = sph_counters,
