@@ -887,6 +887,8 @@ static ej_err sph_shape_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr,
  * a quadrature bias of a few per cent. Far from 1, the support is truncated or sparse (free
  * surface, a disordered shock front) and the sum says nothing about the bias: clamp it rather than
  * amplify noise into the density. */
+static inline ej_real sph_ren_clamp(ej_real fac) { return fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac; }
+
 static inline SPH_ALWAYS_INLINE void sph_row_store(const sph_pair_args *A, ej_idx i, const int dim, const bool ren,
                                                   const bool volume_form, ej_real rhoi, ej_real ax, ej_real ay,
                                                   ej_real az, ej_real drho, ej_real norm, ej_real de, ej_real dw,
@@ -897,17 +899,10 @@ static inline SPH_ALWAYS_INLINE void sph_row_store(const sph_pair_args *A, ej_id
   if (dim > 2) A->a[3 * i + 2] += az;
   if (A->ren_norm) { /* renormalize_interfaces: the factor over every set's neighbours, in finish */
     A->ren_div[i] = drho, A->ren_norm[i] = norm;
-    A->e_dot[i] += 0.5 * de;
-    A->w_dot[i] += 0.5 * dw;
-    A->mu_max[i] = mumax;
-    return;
+  } else {
+    if (ren && norm < 0.0) drho *= sph_ren_clamp(-(ej_real)dim / (volume_form ? norm : norm / rhoi));
+    if (A->cont_rate) A->rho_dot[i] += volume_form ? rhoi * drho : drho;
   }
-  if (ren && norm < 0.0) {
-    ej_real fac = -(ej_real)dim / (volume_form ? norm : norm / rhoi);
-    fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
-    drho *= fac;
-  }
-  if (A->cont_rate) A->rho_dot[i] += volume_form ? rhoi * drho : drho;
   A->e_dot[i] += 0.5 * de;
   A->w_dot[i] += 0.5 * dw;
   A->mu_max[i] = mumax;
@@ -2333,11 +2328,7 @@ static ej_err sph_finish(void *state, ej_set *set, ej_range r)
   for (ej_idx i = r.begin; i < r.end; ++i) {
     ej_real drho = ren_div[i];
     const ej_real norm = ren_norm[i];
-    if (norm < 0.0) {
-      ej_real fac = -dim / norm;
-      fac = fac < 0.5 ? 0.5 : fac > 2.0 ? 2.0 : fac;
-      drho *= fac;
-    }
+    if (norm < 0.0) drho *= sph_ren_clamp(-dim / norm);
     rho_dot[i] += rho[i] * drho;
   }
   return EJ_OK;
