@@ -2336,14 +2336,14 @@ static ej_err sph_finish(void *state, ej_set *set, ej_range r)
 
 static ej_err sph_check_config(const void *config, ej_diag *diag)
 {
-  const sph_config *cr = config;
-  if (cr->renormalize_interfaces &&
-      (!cr->renormalize || cr->correction || cr->gradient != SPH_GRAD_KERNEL || cr->density != SPH_DENS_CONTINUITY ||
-       cr->continuity != SPH_CONT_VOLUME || cr->strength || cr->geometry != SPH_GEOM_PLANAR))
+  const sph_config *cfg = config;
+  if (cfg->renormalize_interfaces &&
+      (!cfg->renormalize || cfg->correction || cfg->gradient != SPH_GRAD_KERNEL ||
+       cfg->density != SPH_DENS_CONTINUITY || cfg->continuity != SPH_CONT_VOLUME || cfg->strength ||
+       cfg->geometry != SPH_GEOM_PLANAR))
     return ej_diag_error(diag, "renormalize_interfaces",
                          "renormalize_interfaces needs renormalize: true with the plain kernel gradient, "
                          "density: continuity, continuity: volume, strength: false and geometry: planar");
-  const sph_config *cfg = config;
   /* geometry: spherical supports the kernel-gradient gas path (its dimension: 1 is checked in create,
    * which sees the dimension) */
   if (cfg->geometry == SPH_GEOM_SPHERICAL) {
