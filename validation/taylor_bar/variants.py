@@ -60,6 +60,15 @@ VARIANTS = {
                   [("    temperature: internal_energy\n", "    temperature: plastic_work\n")]),
     "no_renorm": ("continuity without the divergence renormalisation (renormalize: false)",
                   [("    art_stress: false\n", "    art_stress: false\n    renormalize: false\n")]),
+    "h12": ("h_factor 1.2 in the bar (the scene: 1.5, Wendland C2) - sensitivity only",
+            [("    h_factor: 1.5\n", "    h_factor: 1.2\n")]),
+    "h20": ("h_factor 2.0 in the bar (the scene: 1.5, Wendland C2) - sensitivity only",
+            [("    h_factor: 1.5\n", "    h_factor: 2.0\n")]),
+    "cubic": ("cubic spline kernel, h_factor 1.3, in the bar and the wall pairs (the scene: Wendland C2, 1.5)",
+              [("    kernel: wendland_c2\n    h_factor: 1.5\n", "    kernel: cubic_spline\n    h_factor: 1.3\n"),
+               ("kernel: wendland_c2, slip", "kernel: cubic_spline, slip")]),
+    "art_stress": ("Monaghan artificial stress on in the bar (eps 0.3, n 4; 001: off)",
+                   [("    art_stress: false\n", "    art_stress: true\n")]),
 }
 
 
