@@ -79,11 +79,35 @@ void ej_set_destroy(ej_set *s)
   ej_free(s);
 }
 
+/* FNV-1a, 32 bits (Fowler, Noll, Vo): the hash of the field-name table. */
+static uint32_t ej_name_hash(const char *name)
+{
+  uint32_t h = 2166136261u;
+  for (const unsigned char *c = (const unsigned char *)name; *c; ++c) h = (h ^ *c) * 16777619u;
+  return h;
+}
+
+#define EJ_FTAB_MASK (2 * EJ_MAX_FIELDS - 1)
+
 int ej_set_find_field(const ej_set *s, const char *name)
 {
-  for (int k = 0; k < s->n_fields; ++k)
-    if (!strcmp(s->fields[k].name, name)) return k;
-  return -1;
+  const uint32_t h = ej_name_hash(name);
+  /* at most EJ_MAX_FIELDS of the 2 EJ_MAX_FIELDS slots are used: the probe meets an empty slot */
+  for (uint32_t q = h & EJ_FTAB_MASK;; q = (q + 1) & EJ_FTAB_MASK) {
+    const int k = (int)s->ftab[q] - 1;
+    if (k < 0) return -1;
+    if (s->fhash[k] == h && !strcmp(s->fields[k].name, name)) return k;
+  }
+}
+
+/* Enters field k (already named) into the lookup table. */
+static void ej_set_index_field(ej_set *s, int k)
+{
+  const uint32_t h = ej_name_hash(s->fields[k].name);
+  s->fhash[k] = h;
+  uint32_t q = h & EJ_FTAB_MASK;
+  while (s->ftab[q]) q = (q + 1) & EJ_FTAB_MASK;
+  s->ftab[q] = (uint8_t)(k + 1);
 }
 
 static ej_err ej_set_alloc_field(ej_set *s, ej_field *f)
@@ -110,6 +134,7 @@ static ej_err ej_set_push_field(ej_set *s, const char *name, ej_field_kind kind,
   f->energy = energy;
   f->rate = f->rate_of = f->half = -1;
   EJ_TRY(ej_set_alloc_field(s, f));
+  ej_set_index_field(s, s->n_fields);
   *index = s->n_fields++;
   return EJ_OK;
 }

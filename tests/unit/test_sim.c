@@ -122,6 +122,48 @@ START_TEST(test_fields_only_declared)
 }
 END_TEST
 
+/* Field lookup by name (ej_set_find_field: FNV-1a hashed open addressing): a set filled to
+ * EJ_MAX_FIELDS with names that share prefixes and suffixes finds every field at its own index,
+ * by real and integer kind, and nothing else; one field more is refused. Against a linear scan
+ * of the names. */
+START_TEST(test_field_lookup)
+{
+  ej_set *s = NULL;
+  ck_assert_int_eq(ej_set_create("lookup", 0, 3, &s), EJ_OK);
+  int added = 0;
+  for (int k = 0; s->n_fields < EJ_MAX_FIELDS; ++k) {
+    char nm[EJ_FIELD_NAME_LEN];
+    snprintf(nm, sizeof nm, k % 3 == 0 ? "f%d" : k % 3 == 1 ? "f%d_dot" : "rho%d", k);
+    const ej_field_decl d = {.name = nm, .kind = k % 4 == 3 ? EJ_INT : EJ_SCALAR};
+    int idx = -1;
+    ck_assert_int_eq(ej_set_add_field(s, &d, &idx), EJ_OK);
+    ck_assert_int_eq(idx, s->n_fields - 1);
+    ++added;
+  }
+  ck_assert_int_ge(added, 1);
+  for (int k = 0; k < s->n_fields; ++k) {
+    int lin = -1;
+    for (int q = 0; q < s->n_fields && lin < 0; ++q)
+      if (!strcmp(s->fields[q].name, s->fields[k].name)) lin = q;
+    ck_assert_int_eq(lin, k);
+    ck_assert_int_eq(ej_set_find_field(s, s->fields[k].name), k);
+    if (s->fields[k].kind == EJ_INT) {
+      ck_assert_ptr_eq(ej_set_field_int(s, s->fields[k].name), s->fields[k].data);
+      ck_assert_ptr_null(ej_set_field(s, s->fields[k].name));
+    } else {
+      ck_assert_ptr_eq(ej_set_field(s, s->fields[k].name), s->fields[k].data);
+      ck_assert_ptr_null(ej_set_field_int(s, s->fields[k].name));
+    }
+  }
+  const char *absent[] = {"", "f", "f1_dot_", "rho", "F0", "f0 ", "rho1000", "x_prev_half_longer_name"};
+  for (size_t q = 0; q < sizeof absent / sizeof *absent; ++q) ck_assert_int_eq(ej_set_find_field(s, absent[q]), -1);
+  const ej_field_decl more = {.name = "one_too_many", .kind = EJ_SCALAR};
+  ck_assert_int_ne(ej_set_add_field(s, &more, NULL), EJ_OK);
+  ck_assert_int_eq(ej_set_find_field(s, "one_too_many"), -1);
+  ej_set_destroy(s);
+}
+END_TEST
+
 START_TEST(test_gravity_energy)
 {
   /* A free gas blob falls: the centre of mass follows g t^2 / 2 and the budget closes with
@@ -433,6 +475,7 @@ int main(void)
   tcase_add_test(tc, test_watchdog);
   tcase_add_test(tc, test_set_mass);
   tcase_add_test(tc, test_fields_only_declared);
+  tcase_add_test(tc, test_field_lookup);
   tcase_add_test(tc, test_gravity_energy);
   tcase_add_test(tc, test_fix_and_velocity_bcs);
   tcase_add_test(tc, test_periodic_and_symmetry_rest);
