@@ -720,6 +720,102 @@ static void det_run(int threads, const char *dir, ej_real **out, ej_idx *n_out)
   unlink(h5);
 }
 
+/* break_skip (tlpd_post_step's bond-break skip): a 40 x 8 x 6 bar whose end is pulled off at 2 m/s
+ * (critical stretch 0.002: the bonds across the pull break over several steps, longest last), a
+ * symmetry plane y = 0 (mirror ghosts in the families), a corner particle failed from the start,
+ * and at step 30 one particle far from the pull, still nearly at rest, marked failed (its
+ * neighbours must break their bonds to it although their sweeps are being skipped). With the skip on and off, after
+ * 60 steps: positions, velocities, stress, damage, failed flags and every bond flag bitwise equal;
+ * the skip skipped sweeps and the pull broke bonds. */
+static void skip_run(bool skip, ej_real **out, uint8_t **flags_out, ej_idx *n_out, ej_off *nb_out, int64_t *skipped)
+{
+  trun r;
+  char yaml[1024];
+  snprintf(yaml, sizeof yaml,
+           "ejecta: 1\ndimension: 3\ntime: {end: 1, cfl: 0.5, max_steps: 30}\n" MAT
+           "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0, 0, 0], max: [0.4, 0.08, 0.06]}}, "
+           "spacing: 0.01, failure: {critical_stretch: 0.002}, break_skip: %s, "
+           "initial: [{region: {box: {min: [-1, -1, -1], max: [0.03, 1, 1]}}, velocity: [-2, 0, 0]}]}}\n"
+           "boundaries: [{symmetry: {point: [0, 0, 0], normal: [0, 1, 0]}}]\n",
+           skip ? "true" : "false");
+  trun_open(&r, yaml);
+  ej_set *s = r.sim->sets[0];
+  const ej_idx n = ej_set_count(s);
+  const ej_real *x0 = ej_set_field(s, "x0");
+  ej_idx pf = -1, p0 = -1;
+  for (ej_idx i = 0; i < n; ++i) {
+    if (fabs(x0[3 * i] - 0.305) < 1e-9 && fabs(x0[3 * i + 1] - 0.005) < 1e-9 && fabs(x0[3 * i + 2] - 0.025) < 1e-9) pf = i;
+    if (fabs(x0[3 * i] - 0.395) < 1e-9 && fabs(x0[3 * i + 1] - 0.075) < 1e-9 && fabs(x0[3 * i + 2] - 0.055) < 1e-9) p0 = i;
+  }
+  ck_assert_int_ge(pf, 0);
+  ck_assert_int_ge(p0, 0);
+  /* a corner particle failed from the start: failed ends break bonds (check_fail) from the first
+   * step on, so the failure at step 30 has to be found by the skip's failure counts */
+  ej_set_field_int(s, "failed")[p0] = 1;
+  ej_err rc = ej_sim_run(r.sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  ej_set_field_int(s, "failed")[pf] = 1;
+  r.scene->max_steps = 60;
+  char o2[256]; /* the first run closed its output: a second file for the rest */
+  snprintf(o2, sizeof o2, "%s/o2.h5", r.dir);
+  ck_assert_int_eq(ej_output_open(&r.sim->out, r.sim, o2), EJ_OK);
+  rc = ej_sim_run(r.sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  const char *names[] = {"x", "v", "stress", "damage"};
+  const int nc[] = {3, 3, 6, 1};
+  ej_real *buf = malloc((size_t)n * 14 * sizeof *buf), *p = buf;
+  ck_assert_ptr_nonnull(buf);
+  for (int k = 0; k < 4; ++k) {
+    memcpy(p, ej_set_field(s, names[k]), (size_t)n * nc[k] * sizeof *p);
+    p += (size_t)n * nc[k];
+  }
+  const int32_t *failed = ej_set_field_int(s, "failed");
+  for (ej_idx i = 0; i < n; ++i) p[i] = failed[i];
+  const ej_nbr *nb = &s->list->pub;
+  const ej_off nbonds = nb->off[n];
+  uint8_t *fl = malloc((size_t)nbonds);
+  ck_assert_ptr_nonnull(fl);
+  memcpy(fl, ej_set_bond_flags(s), (size_t)nbonds);
+  /* the bonds of the failed particle are broken from both ends */
+  for (ej_idx i = 0; i < n; ++i)
+    for (ej_off k = nb->off[i]; k < nb->off[i + 1]; ++k)
+      if (i == pf || nb->idx[k] == pf) ck_assert_int_eq(fl[k] & 1, 1);
+  ej_counter c[8];
+  int nc_out = 0;
+  ck_assert_int_eq(s->mops->counters(s->mstate, c, 8, &nc_out), EJ_OK);
+  *skipped = -1;
+  for (int k = 0; k < nc_out; ++k)
+    if (strstr(c[k].name, "skipped")) *skipped = c[k].value;
+  *out = buf, *flags_out = fl, *n_out = n, *nb_out = nbonds;
+  trun_close(&r);
+}
+
+START_TEST(test_break_skip)
+{
+  ej_real *a, *b;
+  uint8_t *fa, *fb;
+  ej_idx na, nb;
+  ej_off ba, bb;
+  int64_t sa, sb;
+  skip_run(true, &a, &fa, &na, &ba, &sa);
+  skip_run(false, &b, &fb, &nb, &bb, &sb);
+  ck_assert_int_eq(na, nb);
+  ck_assert_int_eq(ba, bb);
+  ck_assert_msg(memcmp(a, b, (size_t)na * 14 * sizeof *a) == 0, "fields differ with and without break_skip");
+  ck_assert_msg(memcmp(fa, fb, (size_t)ba) == 0, "bond flags differ with and without break_skip");
+  int64_t broken = 0;
+  for (ej_off k = 0; k < ba; ++k) broken += fa[k] & 1;
+  /* the pull broke bonds beyond those of the two failed particles (~70 and ~30 each way) */
+  ck_assert_msg(broken > 400, "only %lld broken bonds: the test would not exercise breaking", (long long)broken);
+  ck_assert_int_eq(sb, -1); /* off: no counter */
+  ck_assert_msg(sa > (int64_t)na * 10, "%lld sweeps skipped of %lld row-steps", (long long)sa, (long long)na * 60);
+  ck_assert_msg(sa < (int64_t)na * 60, "every sweep skipped: the pull's rows must sweep");
+  free(a), free(b), free(fa), free(fb);
+}
+END_TEST
+
 /* ------------------------------------------------------------------ stable step of the family */
 
 /* The 40-particle chain of the two family-step tests below. */
@@ -916,6 +1012,7 @@ int main(void)
   tcase_add_test(tc, test_refine_graded_horizon);
   tcase_add_test(tc, test_bond_breaking);
   tcase_add_test(tc, test_point_failure_detached);
+  tcase_add_test(tc, test_break_skip);
   tcase_add_test(tc, test_spring_fallback);
   tcase_add_test(tc, test_thread_determinism);
   tcase_add_test(tc, test_stable_dt_family);

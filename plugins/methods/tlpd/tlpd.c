@@ -88,6 +88,7 @@ typedef struct tlpd_config {
   ej_real min_rcond;
   bool output_F;
   bool energy_correction;
+  bool break_skip;
   bool ghost_force_correction;
   ej_real damping;
   int contact;
@@ -174,6 +175,12 @@ static const ej_param tlpd_params[] = {
      .doc = "Re-evaluate the internal-energy rate at the final velocity of the step (exact in total, per "
             "particle -a_int . (v_n+1 - v_pred)); false leaves the core's predicted-velocity rate, whose energy "
             "error grows as dt^2 sum |a_n+1 - a_n|^2 (2.6 % on the tearing bar at cfl 0.5)."},
+    {.name = "break_skip", .type = EJ_PT_BOOL, .offset = offsetof(tlpd_config, break_skip),
+     .flags = EJ_PF_EXPERT, .unit = "1", .def = 1,
+     .doc = "Skip the bond-break sweep of a row while no bond of it can have reached the critical stretch (its "
+            "reference-cell block's displacement since its last sweep, twice, below its smallest sqrt(lim)|X| - |Y|) "
+            "and no particle of the block failed since: the same broken bonds as sweeping every row every step, "
+            "at a fraction of the cost where the body is at rest. false sweeps every row every step."},
     EJ_PARAM_BOOL(tlpd_config, ghost_force_correction, 0,
                   "Opt-in, variable spacing only: remove the ghost force of a uniform stress on the rows near a change of "
                   "spacing (f_i -= P_i e_i, e_i = K_i^-1 m1_i + sum_j B_ij K_j^-1 X_ij), so that a uniform strain gives "
@@ -318,6 +325,34 @@ typedef struct tlpd_state {
   ej_real *avis;       /* [3n] contact_law impact: acceleration of the viscous contact force (this step) */
   ej_real *cc;         /* [n] contact_law impact: viscous coefficient sum_j A rho (alpha c + beta |v_n|), N s/m */
   int32_t *ncont;      /* [n] contact pairs of row i in the last force pass */
+  /* Bond-break sweep skip (post_step, README "Cost"). A cell grid over the owned particles'
+   * reference positions, cells at least as wide as the longest bond, so that row i's family lies
+   * in the 3^dim block of cells around i's cell. finish records each cell's largest displacement
+   * since the last post_step, |x - x_prev|, and counts new point failures per cell; post_step adds
+   * the block's largest displacement to the row's budget and skips the row's bond sweep while
+   * 2 budget < slack, the row's smallest sqrt(lim)|X| - |Y| at its last sweep (a lower bound): no
+   * bond can have reached the limit, so the sweep would change no flag. Exact: the same flags as
+   * sweeping every row every step. */
+  bool bk_on;
+  int bk_nc[3];
+  ej_real bk_lo[3], bk_inv; /* grid origin, 1 / cell size */
+  size_t bk_ncell;
+  int32_t *bk_cell;           /* [n] reference cell of particle i */
+  int64_t *bk_nskip;          /* [n] sweeps skipped (the counters op sums them) */
+  uint8_t *bk_m;              /* [n] row i's block: the cells within bk_m[i] of its own in each direction
+                               * (its longest bond over the cell size, rounded up) */
+  uint8_t *bk_fseen;          /* [n] failed, as counted in bk_fcell */
+  ej_real *bk_budget;         /* [n] sum, since row i's last sweep, of its block's largest displacement */
+  ej_real *bk_slack;          /* [n] lower bound of min over the unbroken bonds of sqrt(lim)|X| - |Y| at that sweep */
+  int64_t *bk_fsum;           /* [n] failed particles counted in row i's block at that sweep */
+  uint32_t *bk_gen;           /* [n] bk_gen_now at row i's last post_step (0: never) */
+  uint8_t *bk_cf;             /* [n] check_fail (failed ends break bonds) at that sweep */
+  uint8_t *bk_gok;            /* [n] ghost neighbours: 0 not checked, 1 none or every ghost's source in the row's
+                               * block (a mirror image: its displacement is its source's, in length), 2 not */
+  ej_idx *bk_src;             /* [n] owned index of id k (ids of the owned particles: a permutation of 0..n-1) */
+  _Atomic uint64_t *bk_dcell; /* [ncell] largest |x - x_prev| of the cell at the last finish (bits of a double >= 0) */
+  atomic_llong *bk_fcell;     /* [ncell] failed particles of the cell counted so far (failed never clears) */
+  atomic_uint bk_gen_now;     /* finish calls (bumped by the range holding particle 0) */
   /* serial report accumulators */
   ej_real w_traction, w_damping, t_last;
 } tlpd_state;
@@ -413,6 +448,12 @@ static void tlpd_free_arrays(tlpd_state *s)
   ej_free(s->jmax), ej_free(s->notok);
   ej_free(s->pfail), ej_free(s->kc), ej_free(s->cc), ej_free(s->avis), ej_free(s->ncont);
   ej_free(s->c_cellof), ej_free(s->c_order), ej_free(s->c_start);
+  ej_free(s->bk_cell), ej_free(s->bk_fseen), ej_free(s->bk_budget), ej_free(s->bk_slack), ej_free(s->bk_fsum);
+  ej_free(s->bk_gen), ej_free(s->bk_cf), ej_free((void *)s->bk_dcell), ej_free((void *)s->bk_fcell);
+  ej_free(s->bk_gok), ej_free(s->bk_src), ej_free(s->bk_m), ej_free(s->bk_nskip);
+  s->bk_gok = s->bk_m = NULL, s->bk_src = NULL, s->bk_nskip = NULL;
+  s->bk_cell = NULL, s->bk_fseen = s->bk_cf = NULL, s->bk_budget = s->bk_slack = NULL, s->bk_fsum = NULL;
+  s->bk_gen = NULL, s->bk_dcell = NULL, s->bk_fcell = NULL, s->bk_on = false;
   tlpd_grade_free(s);
 }
 
@@ -876,6 +917,93 @@ static ej_err tlpd_setup(void *state, ej_set *set)
 
 /* ------------------------------------------------------------------ lazy allocation */
 
+/* The bond-break skip's grid (tlpd_state.bk_*): cells at least as wide as the longest bond of
+ * the reference family, over the owned particles' x0, at most 2^22 cells (wider cells when the
+ * body is large against the horizon: the bound stays valid, only coarser). Without memory for it
+ * the skip is off (every row swept, as before). */
+static void tlpd_skip_setup(tlpd_state *s, ej_set *set)
+{
+  const ej_real *x0 = ej_set_field(set, "x0");
+  const ej_idx n = s->n;
+  s->bk_on = false;
+  if (!x0 || n == 0) return;
+  /* each row's longest bond (kept in bk_slack until the first sweep overwrites it); the cells are as
+   * wide as the shortest of these, so that a refined zone's rows read a block of their own size */
+  s->bk_slack = ej_calloc((size_t)n, sizeof *s->bk_slack);
+  if (!s->bk_slack) return;
+  ej_real lmin2 = HUGE_VAL, lmax2 = 0, lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  for (ej_idx i = 0; i < n; ++i) {
+    for (int a = 0; a < 3; ++a) lo[a] = fmin(lo[a], x0[3 * i + a]), hi[a] = fmax(hi[a], x0[3 * i + a]);
+    ej_real l2 = 0;
+    for (ej_off k = s->off[i]; k < s->off[i + 1]; ++k) {
+      const ej_idx j = s->idx[k];
+      const ej_real X0 = x0[3 * j] - x0[3 * i], X1 = x0[3 * j + 1] - x0[3 * i + 1], X2 = x0[3 * j + 2] - x0[3 * i + 2];
+      l2 = fmax(l2, X0 * X0 + X1 * X1 + X2 * X2);
+    }
+    s->bk_slack[i] = sqrt(l2);
+    if (l2 > 0) lmin2 = fmin(lmin2, l2), lmax2 = fmax(lmax2, l2);
+  }
+  if (!(lmax2 > 0) || !isfinite(lmax2)) return;
+  ej_real L = sqrt(lmin2) * (1 + 1e-9);
+  for (;;) {
+    double cells = 1;
+    for (int a = 0; a < 3; ++a) cells *= floor((hi[a] - lo[a]) / L) + 1;
+    if (cells <= (double)(1 << 22) && sqrt(lmax2) / L < 60) break;
+    L *= 1.25;
+  }
+  s->bk_ncell = 1;
+  for (int a = 0; a < 3; ++a) {
+    s->bk_lo[a] = lo[a];
+    s->bk_nc[a] = (int)floor((hi[a] - lo[a]) / L) + 1;
+    s->bk_ncell *= (size_t)s->bk_nc[a];
+  }
+  s->bk_inv = 1 / L;
+  const size_t nn = (size_t)n;
+  s->bk_cell = ej_malloc(nn * sizeof *s->bk_cell);
+  s->bk_fseen = ej_calloc(nn, 1);
+  s->bk_budget = ej_calloc(nn, sizeof *s->bk_budget);
+  s->bk_m = ej_malloc(nn);
+  s->bk_nskip = ej_calloc(nn, sizeof *s->bk_nskip);
+  s->bk_fsum = ej_calloc(nn, sizeof *s->bk_fsum);
+  s->bk_gen = ej_calloc(nn, sizeof *s->bk_gen);
+  s->bk_cf = ej_calloc(nn, 1);
+  s->bk_gok = ej_calloc(nn, 1);
+  s->bk_src = ej_malloc(nn * sizeof *s->bk_src);
+  s->bk_dcell = ej_malloc(s->bk_ncell * sizeof *s->bk_dcell);
+  s->bk_fcell = ej_malloc(s->bk_ncell * sizeof *s->bk_fcell);
+  if (!s->bk_cell || !s->bk_fseen || !s->bk_budget || !s->bk_slack || !s->bk_fsum || !s->bk_gen || !s->bk_cf ||
+      !s->bk_dcell || !s->bk_fcell || !s->bk_gok || !s->bk_src || !s->bk_m || !s->bk_nskip)
+    return; /* tlpd_free_arrays frees what was allocated */
+  /* owned ids: a permutation of 0..n-1 (sim.c numbers a set's particles, a sort permutes them);
+   * otherwise the ghosts' sources are unknown and every row with a ghost neighbour sweeps */
+  const int32_t *id = ej_set_field_int(set, "id");
+  for (ej_idx i = 0; i < n; ++i) s->bk_src[i] = -1;
+  bool perm = id != NULL;
+  for (ej_idx i = 0; perm && i < n; ++i) {
+    perm = id[i] >= 0 && id[i] < n && s->bk_src[id[i]] < 0;
+    if (perm) s->bk_src[id[i]] = i;
+  }
+  if (!perm) memset(s->bk_gok, 2, nn);
+  for (ej_idx i = 0; i < n; ++i) {
+    int64_t c = 0;
+    for (int a = 2; a >= 0; --a) {
+      int q = (int)floor((x0[3 * i + a] - lo[a]) * s->bk_inv);
+      q = q < 0 ? 0 : q >= s->bk_nc[a] ? s->bk_nc[a] - 1 : q;
+      c = c * s->bk_nc[a] + q;
+    }
+    s->bk_cell[i] = (int32_t)c;
+    const ej_real m = ceil(s->bk_slack[i] * s->bk_inv);
+    s->bk_m[i] = (uint8_t)(m < 1 ? 1 : m);
+    s->bk_slack[i] = 0;
+  }
+  for (size_t c = 0; c < s->bk_ncell; ++c) {
+    atomic_init(&s->bk_dcell[c], UINT64_C(0x7ff0000000000000)); /* +inf until the first finish */
+    atomic_init(&s->bk_fcell[c], 0);
+  }
+  atomic_init(&s->bk_gen_now, 1);
+  s->bk_on = s->bk_ncell <= (size_t)INT32_MAX;
+}
+
 static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
 {
   const ej_idx n = ej_set_count(set);
@@ -975,6 +1103,7 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->c_order = NULL;
     EJ_FAIL(EJ_ERR_MEM, "set '%s': tlpd out of memory for %lld bonds", s->name, (long long)s->nb);
   }
+  if (s->cfg.break_skip) tlpd_skip_setup(s, set);
   return EJ_OK;
 }
 
@@ -1187,6 +1316,10 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
 
   memcpy(s->vpred + 3 * (size_t)r.begin, v + 3 * (size_t)r.begin, 3 * (size_t)(r.end - r.begin) * sizeof *v);
   memset(s->vp_ok + r.begin, 1, (size_t)(r.end - r.begin));
+  /* the bond-break skip's displacement maxima are measured afresh by this evaluation's finish
+   * (nothing else reads or writes them during the passes) */
+  if (s->bk_on && r.begin == 0)
+    for (size_t c = 0; c < s->bk_ncell; ++c) atomic_store_explicit(&s->bk_dcell[c], 0, memory_order_relaxed);
   for (ej_idx i = r.begin; i < r.end; ++i) {
     if (!s->row_ready[i]) tlpd_init_row(s, set, nbr, i);
     ej_real *Fi = F + 9 * i, *di = s->d6 + 6 * i;
@@ -1897,15 +2030,17 @@ static ej_err tlpd_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass
  * nonzero iff a flag changed. check_fail is a constant at both call sites (two vector loops). */
 TLPD_ALWAYS_INLINE int tlpd_break_row(const tlpd_state *s, const ej_real *restrict x, const ej_real *restrict x0,
                                       const ej_real lim, const int32_t *restrict failed, const bool check_fail,
-                                      uint8_t *restrict fl, const ej_idx i)
+                                      uint8_t *restrict fl, const ej_idx i, ej_real *slack)
 {
   const ej_real xi0 = x[3 * i], xi1 = x[3 * i + 1], xi2 = x[3 * i + 2];
   const ej_real Xi0 = x0[3 * i], Xi1 = x0[3 * i + 1], Xi2 = x0[3 * i + 2];
   const int fi = check_fail && failed[i] != 0;
   const ej_idx *restrict idx = s->idx;
   int changed = 0;
+  ej_real mn = INFINITY;
+  const bool fin = lim < INFINITY; /* a critical stretch: the skip's slack is finite */
 #if defined(_OPENMP)
-#pragma omp simd reduction(| : changed)
+#pragma omp simd reduction(| : changed) reduction(min : mn)
 #endif
   for (ej_off k = s->off[i]; k < s->off[i + 1]; ++k) {
     const ej_idx j = idx[k];
@@ -1916,8 +2051,95 @@ TLPD_ALWAYS_INLINE int tlpd_break_row(const tlpd_state *s, const ej_real *restri
     const uint8_t f = fl[k], nf = (uint8_t)(f | (brk ? TLPD_BROKEN : 0));
     changed |= nf != f;
     fl[k] = nf;
+    /* the skip's slack over the bonds left intact (|Y| <= sqrt(lim)|X| there):
+     * sqrt(lim)|X| - |Y| = (lim |X|^2 - |Y|^2) / (sqrt(lim)|X| + |Y|) >= (lim |X|^2 - |Y|^2) / (2 sqrt(lim |X|^2)),
+     * less a round-off margin of 1e-12 lim |X|^2 on the numerator */
+    const ej_real a2 = lim * lx2;
+    const ej_real sl = (nf & TLPD_BROKEN) || !fin ? INFINITY : (a2 - ly2 - 1e-12 * a2) / (2 * sqrt(a2));
+    mn = sl < mn ? sl : mn;
   }
+  *slack = mn;
   return changed;
+}
+
+/* Bond-break skip (tlpd_state.bk_*): the largest displacement maximum of the cells within m of cell c
+ * in each direction, and the sum of their failure counts. */
+static void tlpd_skip_block(const tlpd_state *s, int32_t c, int m, ej_real *dmax, int64_t *fsum)
+{
+  const int n0 = s->bk_nc[0], n1 = s->bk_nc[1], n2 = s->bk_nc[2];
+  const int q0 = c % n0, q1 = (c / n0) % n1, q2 = c / (n0 * n1);
+  uint64_t dm = 0;
+  int64_t fs = 0;
+  for (int c2 = q2 > m ? q2 - m : 0; c2 <= q2 + m && c2 < n2; ++c2)
+    for (int c1 = q1 > m ? q1 - m : 0; c1 <= q1 + m && c1 < n1; ++c1)
+      for (int c0 = q0 > m ? q0 - m : 0; c0 <= q0 + m && c0 < n0; ++c0) {
+        const size_t cc = ((size_t)c2 * (size_t)n1 + (size_t)c1) * (size_t)n0 + (size_t)c0;
+        const uint64_t d = atomic_load_explicit(&s->bk_dcell[cc], memory_order_relaxed);
+        dm = d > dm ? d : dm; /* non-negative doubles order as their bits */
+        fs += atomic_load_explicit(&s->bk_fcell[cc], memory_order_relaxed);
+      }
+  ej_real v;
+  memcpy(&v, &dm, sizeof v);
+  *dmax = v, *fsum = fs;
+}
+
+/* Whether every ghost neighbour of row i has its source in row i's block of cells (tlpd_state.bk_gok):
+ * then the block's displacement maximum bounds the ghost's too, for an isometric image (mirror or
+ * periodic) moves its source's distance. A mirror image's source is as close in the reference
+ * configuration as the image; a periodic image's is not (such rows always sweep). */
+static uint8_t tlpd_skip_ghosts(const tlpd_state *s, const int32_t *id, ej_idx i)
+{
+  const int n0 = s->bk_nc[0], n1 = s->bk_nc[1];
+  const int32_t ci = s->bk_cell[i];
+  const int a0 = ci % n0, a1 = (ci / n0) % n1, a2 = ci / (n0 * n1);
+  for (ej_off k = s->off[i]; k < s->off[i + 1]; ++k) {
+    const ej_idx j = s->idx[k];
+    if (j < s->n) continue;
+    if (!id || id[j] < 0 || id[j] >= s->n) return 2;
+    const ej_idx src = s->bk_src[id[j]];
+    if (src < 0) return 2;
+    const int32_t cj = s->bk_cell[src];
+    const int b0 = cj % n0, b1 = (cj / n0) % n1, b2 = cj / (n0 * n1);
+    const int m = s->bk_m[i];
+    if (abs(a0 - b0) > m || abs(a1 - b1) > m || abs(a2 - b2) > m) return 2;
+  }
+  return 1;
+}
+
+/* The displacement maxima and the new failures per cell (after every interaction, so after the
+ * decohesion of pd_sph too: the failed flags post_step will read). x_prev is the x of the last
+ * post_step, so |x - x_prev| is each particle's displacement since then. */
+static ej_err tlpd_finish(void *state, ej_set *set, ej_range r)
+{
+  tlpd_state *s = state;
+  if (!s->bk_on || !atomic_load_explicit(&s->ready, memory_order_acquire)) return EJ_OK;
+  const ej_real *x = ej_set_field(set, "x"), *xp = ej_set_field(set, "x_prev");
+  const int32_t *failed = ej_set_field_int(set, "failed");
+  EJ_ENSURE(x && xp && failed, EJ_ERR_INTERNAL, "set '%s': tlpd fields missing", s->name);
+  int32_t cur = -1;
+  ej_real dm = 0;
+  for (ej_idx i = r.begin; i <= r.end; ++i) {
+    const int32_t c = i < r.end ? s->bk_cell[i] : -2;
+    if (c != cur && cur >= 0) { /* a run of one cell ends: one atomic max for the run */
+      uint64_t nv, old = atomic_load_explicit(&s->bk_dcell[cur], memory_order_relaxed);
+      memcpy(&nv, &dm, sizeof nv);
+      if (dm != dm) nv = UINT64_C(0x7ff0000000000000); /* NaN: +inf, no row skips */
+      while (old < nv && !atomic_compare_exchange_weak_explicit(&s->bk_dcell[cur], &old, nv, memory_order_relaxed,
+                                                                memory_order_relaxed)) {
+      }
+    }
+    if (i == r.end) break;
+    if (c != cur) cur = c, dm = 0;
+    const ej_real d0 = x[3 * i] - xp[3 * i], d1 = x[3 * i + 1] - xp[3 * i + 1], d2 = x[3 * i + 2] - xp[3 * i + 2];
+    const ej_real d = sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+    dm = d > dm || d != d ? d : dm;
+    if (failed[i] && !s->bk_fseen[i]) {
+      s->bk_fseen[i] = 1;
+      atomic_fetch_add_explicit(&s->bk_fcell[c], 1, memory_order_relaxed);
+    }
+  }
+  if (r.begin == 0) atomic_fetch_add_explicit(&s->bk_gen_now, 1, memory_order_relaxed);
+  return EJ_OK;
 }
 
 static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
@@ -1983,9 +2205,46 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
    * same decisions, 2026-11-29; this sweep was 23 % of the fine buried-charge step). Without a
    * critical stretch the limit is +inf (never exceeded; |X| > 0). */
   const ej_real lim = s0 > 0 ? (1 + s0) * (1 + s0) : INFINITY;
+  /* the bond-break skip (tlpd_state.bk_*): a row sweeps unless a finish ran since its last
+   * post_step, it has no ghost neighbour (ghosts are not in the grid), check_fail is as at its
+   * last sweep, no particle of its block failed since, and twice its budget is below its slack */
+  const bool skip_on = s->bk_on;
+  const int32_t *id = skip_on ? ej_set_field_int(set, "id") : NULL;
+  const uint32_t gen = skip_on ? atomic_load_explicit(&s->bk_gen_now, memory_order_relaxed) : 0;
+  int32_t bc = -1;
+  int bm = 0;
+  ej_real bdm = 0;
+  int64_t bfs = 0;
   for (ej_idx i = r.begin; i < r.end; ++i) {
-    const int changed = check_fail ? tlpd_break_row(s, x, x0, lim, failed, true, flags, i)
-                                   : tlpd_break_row(s, x, x0, lim, failed, false, flags, i);
+    if (skip_on) {
+      const int32_t c = s->bk_cell[i];
+      const int m = s->bk_m[i];
+      if (c != bc || m != bm) bc = c, bm = m, tlpd_skip_block(s, c, m, &bdm, &bfs); /* rows of one cell share it */
+      const bool measured = s->bk_gen[i] != 0 && s->bk_gen[i] != gen;
+      s->bk_gen[i] = gen;
+      if (measured && !s->bk_gok[i]) s->bk_gok[i] = s->jmax[i] < s->n ? 1 : tlpd_skip_ghosts(s, id, i);
+      bool skip = measured && s->bk_gok[i] == 1 && s->bk_cf[i] == (uint8_t)check_fail;
+      if (skip) {
+        s->bk_budget[i] += bdm;
+        skip = 2 * s->bk_budget[i] * (1 + 1e-9) < s->bk_slack[i]; /* no bond can have reached the limit */
+      }
+      if (skip && check_fail && s->bk_fsum[i] != bfs) {
+        /* a particle of the block failed since the row's last sweep: does one end an intact bond? */
+        skip = !failed[i];
+        for (ej_off k = s->off[i]; skip && k < s->off[i + 1]; ++k)
+          skip = (flags[k] & TLPD_BROKEN) || !failed[s->idx[k]];
+        if (skip) s->bk_fsum[i] = bfs;
+      }
+      if (skip) { /* the sweep would change no flag */
+        ++s->bk_nskip[i];
+        continue;
+      }
+      s->bk_cf[i] = (uint8_t)check_fail, s->bk_fsum[i] = bfs, s->bk_budget[i] = 0;
+    }
+    ej_real slack;
+    const int changed = check_fail ? tlpd_break_row(s, x, x0, lim, failed, true, flags, i, &slack)
+                                   : tlpd_break_row(s, x, x0, lim, failed, false, flags, i, &slack);
+    if (skip_on) s->bk_slack[i] = slack;
     const bool dirty = changed != 0;
     if (dirty) {
       tlpd_refresh_row(s, set, &nbr, i);
@@ -2231,6 +2490,11 @@ static ej_err tlpd_counters(void *state, ej_counter *out, int max, int *n)
   out[1] = (ej_counter){.name = "broken bonds (both directions)", .value = broken};
   out[2] = (ej_counter){.name = "detached particles", .value = det};
   *n = 3;
+  if (s->bk_on && max > *n) {
+    int64_t ns = 0;
+    for (ej_idx i = 0; i < s->n; ++i) ns += s->bk_nskip[i];
+    out[(*n)++] = (ej_counter){.name = "bond-break sweeps skipped (row-steps, break_skip)", .value = ns};
+  }
   if (s->cfg.inversion == TLPD_INV_POINT_FAILURE && max > *n) {
     int64_t pf = 0;
     for (ej_idx i = 0; atomic_load(&s->ready) && i < s->n; ++i) pf += s->pfail[i];
@@ -2264,6 +2528,7 @@ static const ej_method_ops tlpd_ops = {
     .stable_dt = tlpd_stable_dt,
     .post_step = tlpd_post_step,
     .post_step_local = true, /* own rows; reads x, x0 and failed of the other ends, which the kick does not write */
+    .finish = tlpd_finish,   /* the bond-break skip's displacement maxima and failure counts */
     .counters = tlpd_counters,
     .destroy = tlpd_destroy,
     .pass_count = NULL,
