@@ -352,6 +352,8 @@ typedef struct tlpd_state {
   ej_idx *bk_src;             /* [n] owned index of id k (ids of the owned particles: a permutation of 0..n-1) */
   _Atomic uint64_t *bk_dcell; /* [ncell] largest |x - x_prev| of the cell at the last finish (bits of a double >= 0) */
   atomic_llong *bk_fcell;     /* [ncell] failed particles of the cell counted so far (failed never clears) */
+  _Atomic uint64_t *bk_tcell; /* [ncell] the cell's last bond break (largest pd_t_break, bits of a double >= 0):
+                               * stable_dt skips the family scan of a row whose block broke nothing since */
   atomic_uint bk_gen_now;     /* finish calls (bumped by the range holding particle 0) */
   /* serial report accumulators */
   ej_real w_traction, w_damping, t_last;
@@ -450,6 +452,8 @@ static void tlpd_free_arrays(tlpd_state *s)
   ej_free(s->c_cellof), ej_free(s->c_order), ej_free(s->c_start);
   ej_free(s->bk_cell), ej_free(s->bk_fseen), ej_free(s->bk_budget), ej_free(s->bk_slack), ej_free(s->bk_fsum);
   ej_free(s->bk_gen), ej_free(s->bk_cf), ej_free((void *)s->bk_dcell), ej_free((void *)s->bk_fcell);
+  ej_free((void *)s->bk_tcell);
+  s->bk_tcell = NULL;
   ej_free(s->bk_gok), ej_free(s->bk_src), ej_free(s->bk_m), ej_free(s->bk_nskip);
   s->bk_gok = s->bk_m = NULL, s->bk_src = NULL, s->bk_nskip = NULL;
   s->bk_cell = NULL, s->bk_fseen = s->bk_cf = NULL, s->bk_budget = s->bk_slack = NULL, s->bk_fsum = NULL;
@@ -917,6 +921,18 @@ static ej_err tlpd_setup(void *state, ej_set *set)
 
 /* ------------------------------------------------------------------ lazy allocation */
 
+/* *a = max(*a, v) for a double v >= 0 (or NaN: +inf) stored as its bits: non-negative doubles order as
+ * their bit patterns. */
+static void tlpd_atomic_max(_Atomic uint64_t *a, ej_real v)
+{
+  uint64_t nv;
+  memcpy(&nv, &v, sizeof nv);
+  if (v != v) nv = UINT64_C(0x7ff0000000000000);
+  uint64_t old = atomic_load_explicit(a, memory_order_relaxed);
+  while (old < nv && !atomic_compare_exchange_weak_explicit(a, &old, nv, memory_order_relaxed, memory_order_relaxed)) {
+  }
+}
+
 /* The bond-break skip's grid (tlpd_state.bk_*): cells at least as wide as the longest bond of
  * the reference family, over the owned particles' x0, at most 2^22 cells (wider cells when the
  * body is large against the horizon: the bound stays valid, only coarser). Without memory for it
@@ -971,8 +987,9 @@ static void tlpd_skip_setup(tlpd_state *s, ej_set *set)
   s->bk_src = ej_malloc(nn * sizeof *s->bk_src);
   s->bk_dcell = ej_malloc(s->bk_ncell * sizeof *s->bk_dcell);
   s->bk_fcell = ej_malloc(s->bk_ncell * sizeof *s->bk_fcell);
+  s->bk_tcell = ej_malloc(s->bk_ncell * sizeof *s->bk_tcell);
   if (!s->bk_cell || !s->bk_fseen || !s->bk_budget || !s->bk_slack || !s->bk_fsum || !s->bk_gen || !s->bk_cf ||
-      !s->bk_dcell || !s->bk_fcell || !s->bk_gok || !s->bk_src || !s->bk_m || !s->bk_nskip)
+      !s->bk_dcell || !s->bk_fcell || !s->bk_tcell || !s->bk_gok || !s->bk_src || !s->bk_m || !s->bk_nskip)
     return; /* tlpd_free_arrays frees what was allocated */
   /* owned ids: a permutation of 0..n-1 (sim.c numbers a set's particles, a sort permutes them);
    * otherwise the ghosts' sources are unknown and every row with a ghost neighbour sweeps */
@@ -999,7 +1016,12 @@ static void tlpd_skip_setup(tlpd_state *s, ej_set *set)
   for (size_t c = 0; c < s->bk_ncell; ++c) {
     atomic_init(&s->bk_dcell[c], UINT64_C(0x7ff0000000000000)); /* +inf until the first finish */
     atomic_init(&s->bk_fcell[c], 0);
+    atomic_init(&s->bk_tcell[c], 0);
   }
+  /* the breaks so far (a restart's pd_t_break; 0 for a row that never broke) */
+  const ej_real *tbrk = ej_set_field(set, "pd_t_break");
+  for (ej_idx i = 0; tbrk && i < n; ++i)
+    if (tbrk[i] > 0) tlpd_atomic_max(&s->bk_tcell[s->bk_cell[i]], tbrk[i]);
   atomic_init(&s->bk_gen_now, 1);
   s->bk_on = s->bk_ncell <= (size_t)INT32_MAX;
 }
@@ -2083,6 +2105,25 @@ static void tlpd_skip_block(const tlpd_state *s, int32_t c, int m, ej_real *dmax
   *dmax = v, *fsum = fs;
 }
 
+/* The last bond break in the cells within m of cell c (0: none since the start). */
+static ej_real tlpd_block_tmax(const tlpd_state *s, int32_t c, int m)
+{
+  const int n0 = s->bk_nc[0], n1 = s->bk_nc[1], n2 = s->bk_nc[2];
+  const int q0 = c % n0, q1 = (c / n0) % n1, q2 = c / (n0 * n1);
+  uint64_t tm = 0;
+  for (int c2 = q2 > m ? q2 - m : 0; c2 <= q2 + m && c2 < n2; ++c2)
+    for (int c1 = q1 > m ? q1 - m : 0; c1 <= q1 + m && c1 < n1; ++c1)
+      for (int c0 = q0 > m ? q0 - m : 0; c0 <= q0 + m && c0 < n0; ++c0) {
+        const uint64_t t =
+            atomic_load_explicit(&s->bk_tcell[((size_t)c2 * (size_t)n1 + (size_t)c1) * (size_t)n0 + (size_t)c0],
+                                 memory_order_relaxed);
+        tm = t > tm ? t : tm;
+      }
+  ej_real v;
+  memcpy(&v, &tm, sizeof v);
+  return v;
+}
+
 /* Whether every ghost neighbour of row i has its source in row i's block of cells (tlpd_state.bk_gok):
  * then the block's displacement maximum bounds the ghost's too, for an isometric image (mirror or
  * periodic) moves its source's distance. A mirror image's source is as close in the reference
@@ -2120,14 +2161,7 @@ static ej_err tlpd_finish(void *state, ej_set *set, ej_range r)
   ej_real dm = 0;
   for (ej_idx i = r.begin; i <= r.end; ++i) {
     const int32_t c = i < r.end ? s->bk_cell[i] : -2;
-    if (c != cur && cur >= 0) { /* a run of one cell ends: one atomic max for the run */
-      uint64_t nv, old = atomic_load_explicit(&s->bk_dcell[cur], memory_order_relaxed);
-      memcpy(&nv, &dm, sizeof nv);
-      if (dm != dm) nv = UINT64_C(0x7ff0000000000000); /* NaN: +inf, no row skips */
-      while (old < nv && !atomic_compare_exchange_weak_explicit(&s->bk_dcell[cur], &old, nv, memory_order_relaxed,
-                                                                memory_order_relaxed)) {
-      }
-    }
+    if (c != cur && cur >= 0) tlpd_atomic_max(&s->bk_dcell[cur], dm); /* a run of one cell ends (NaN: +inf) */
     if (i == r.end) break;
     if (c != cur) cur = c, dm = 0;
     const ej_real d0 = x[3 * i] - xp[3 * i], d1 = x[3 * i + 1] - xp[3 * i + 1], d2 = x[3 * i + 2] - xp[3 * i + 2];
@@ -2250,6 +2284,7 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
       tlpd_refresh_row(s, set, &nbr, i);
       atomic_store_explicit(&s->t_refresh, ej_set_time(set), memory_order_relaxed);
       tbrk[i] = ej_set_time(set);
+      if (skip_on) tlpd_atomic_max(&s->bk_tcell[s->bk_cell[i]], tbrk[i]);
     }
   }
   return EJ_OK;
@@ -2362,7 +2397,12 @@ static ej_err tlpd_stable_dt(void *state, const ej_set *set, ej_range r, ej_real
        * recomputed every family (a full bond sweep per step while a blast breaks bonds; 30 % of
        * the fine buried-charge step after set-up). */
       bool stale = !(dt_fam[i] > 0);
-      if (!stale && !(dt_fam_t[i] > tr)) {
+      /* the skip's grid (post_step): no break in row i's block since dt_fam was computed, and no
+       * ghost neighbour (read as the set's last break below), so the scan would find tf < dt_fam_t */
+      if (!stale && !(dt_fam_t[i] > tr) && s->bk_on && s->jmax[i] < n &&
+          tlpd_block_tmax(s, s->bk_cell[i], s->bk_m[i]) < dt_fam_t[i])
+        ;
+      else if (!stale && !(dt_fam_t[i] > tr)) {
         ej_real tf = tbrk[i]; /* the family's last break (a max: vectorises, one gather per bond) */
         const ej_idx *restrict idx = s->idx;
 #if defined(_OPENMP)
