@@ -1125,7 +1125,8 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->c_order = NULL;
     EJ_FAIL(EJ_ERR_MEM, "set '%s': tlpd out of memory for %lld bonds", s->name, (long long)s->nb);
   }
-  if (s->cfg.break_skip) tlpd_skip_setup(s, set);
+  /* without a critical stretch only failed ends break bonds: no skip (nor its memory and finish) */
+  if (s->cfg.break_skip && s->cfg.failure.critical_stretch > 0) tlpd_skip_setup(s, set);
   return EJ_OK;
 }
 
