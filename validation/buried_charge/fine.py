@@ -17,8 +17,8 @@ Without --full (and without any --fine-* output) it only says so and exits 0: `m
 --full) runs it, the quick validation does not.
 
 Runs what is missing (on 2 cores: the fine SPH scenes about 40 min at DOB 3 cm and 80 min at
-8 cm; the fine tlpd scenes at most 138 min at DOB 3 cm (1.37 M particles, ninth pass) and at
-most 116 min at 8 cm, measured on 2 threads), or reads the outputs given (--fine-sph, --fine-sph-dob8,
+8 cm; the fine tlpd scenes about 101 min at DOB 3 cm (1.37 M particles, twelfth pass; 138 min in
+the ninth) and at most 116 min at 8 cm, measured on 2 threads), or reads the outputs given (--fine-sph, --fine-sph-dob8,
 --fine-tlpd, --fine-tlpd-dob8; an unfinished run's OUT.h5.partial is read up to its last frame;
 "A,B" reads a run A and its restart B from A's checkpoint as one curve), or takes a fine curve
 from an earlier CSV of this script (--prior-csv: the outputs are 2-4 GB each and are not kept).
