@@ -325,13 +325,13 @@ typedef struct tlpd_state {
   ej_real *avis;       /* [3n] contact_law impact: acceleration of the viscous contact force (this step) */
   ej_real *cc;         /* [n] contact_law impact: viscous coefficient sum_j A rho (alpha c + beta |v_n|), N s/m */
   int32_t *ncont;      /* [n] contact pairs of row i in the last force pass */
-  /* Bond-break sweep skip (post_step, README "Cost"). A cell grid over the owned particles'
-   * reference positions, cells at least as wide as the longest bond, so that row i's family lies
-   * in the 3^dim block of cells around i's cell. finish records each cell's largest displacement
-   * since the last post_step, |x - x_prev|, and counts new point failures per cell; post_step adds
-   * the block's largest displacement to the row's budget and skips the row's bond sweep while
-   * 2 budget < slack, the row's smallest sqrt(lim)|X| - |Y| at its last sweep (a lower bound): no
-   * bond can have reached the limit, so the sweep would change no flag. Exact: the same flags as
+  /* Bond-break sweep skip (post_step; README "Implementation notes", "Bond-break skip"). A cell grid
+   * over the owned particles' reference positions; row i's block, the cells within bk_m[i] of its
+   * own, holds its whole family (and its mirror ghosts' sources). finish records each cell's largest
+   * displacement since the last post_step, |x - x_prev|, and counts new failures per cell; post_step
+   * adds the block's largest displacement to the row's budget and skips the row's bond sweep while
+   * 2 budget < slack, a lower bound of the row's smallest sqrt(lim)|X| - |Y| at its last sweep, and
+   * no failed particle ends an intact bond of it: no flag could change. Exact: the same flags as
    * sweeping every row every step. */
   bool bk_on;
   int bk_nc[3];
@@ -933,10 +933,11 @@ static void tlpd_atomic_max(_Atomic uint64_t *a, ej_real v)
   }
 }
 
-/* The bond-break skip's grid (tlpd_state.bk_*): cells at least as wide as the longest bond of
- * the reference family, over the owned particles' x0, at most 2^22 cells (wider cells when the
- * body is large against the horizon: the bound stays valid, only coarser). Without memory for it
- * the skip is off (every row swept, as before). */
+/* The bond-break skip's grid (tlpd_state.bk_*) over the owned particles' x0: cells as wide as the
+ * shortest row's longest bond, at most 2^22 cells and blocks of at most 59 cells each way (wider
+ * cells otherwise: the bound stays valid, only coarser). Row i's block radius bk_m[i] = its longest
+ * bond over the cell size, rounded up. Without memory for it the skip is off (every row swept, as
+ * before). */
 static void tlpd_skip_setup(tlpd_state *s, ej_set *set)
 {
   const ej_real *x0 = ej_set_field(set, "x0");
@@ -2241,8 +2242,8 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
    * critical stretch the limit is +inf (never exceeded; |X| > 0). */
   const ej_real lim = s0 > 0 ? (1 + s0) * (1 + s0) : INFINITY;
   /* the bond-break skip (tlpd_state.bk_*): a row sweeps unless a finish ran since its last
-   * post_step, it has no ghost neighbour (ghosts are not in the grid), check_fail is as at its
-   * last sweep, no particle of its block failed since, and twice its budget is below its slack */
+   * post_step, every ghost neighbour's source is in its block, check_fail is as at its last sweep,
+   * no failed particle ends an intact bond of it, and twice its budget is below its slack */
   const bool skip_on = s->bk_on;
   const int32_t *id = skip_on ? ej_set_field_int(set, "id") : NULL;
   const uint32_t gen = skip_on ? atomic_load_explicit(&s->bk_gen_now, memory_order_relaxed) : 0;
@@ -2264,11 +2265,19 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
         skip = 2 * s->bk_budget[i] * (1 + 1e-9) < s->bk_slack[i]; /* no bond can have reached the limit */
       }
       if (skip && check_fail && s->bk_fsum[i] != bfs) {
-        /* a particle of the block failed since the row's last sweep: does one end an intact bond? */
+        /* a particle of the block failed since the row's last sweep: does one end an intact bond
+         * (as the sweep reads it: a ghost's own copy of failed)? A ghost whose source failed but
+         * whose copy does not say so yet (refreshed at a later pass) keeps the count unsettled, so
+         * that the row looks again next step, as the sweep would. */
+        bool settled = true;
         skip = !failed[i];
-        for (ej_off k = s->off[i]; skip && k < s->off[i + 1]; ++k)
-          skip = (flags[k] & TLPD_BROKEN) || !failed[s->idx[k]];
-        if (skip) s->bk_fsum[i] = bfs;
+        for (ej_off k = s->off[i]; skip && k < s->off[i + 1]; ++k) {
+          if (flags[k] & TLPD_BROKEN) continue;
+          const ej_idx j = s->idx[k];
+          skip = !failed[j];
+          if (skip && j >= s->n && failed[s->bk_src[id[j]]]) settled = false;
+        }
+        if (skip && settled) s->bk_fsum[i] = bfs;
       }
       if (skip) { /* the sweep would change no flag */
         ++s->bk_nskip[i];
