@@ -666,6 +666,19 @@ END_TEST
 
 /* ------------------------------------------------------------------ thread-count determinism */
 
+/* x, v, stress and damage of the set's owned particles into buf (13 n values); returns the end */
+static ej_real *copy_state(const ej_set *s, ej_real *buf)
+{
+  const char *names[] = {"x", "v", "stress", "damage"};
+  const int nc[] = {3, 3, 6, 1};
+  const ej_idx n = ej_set_count(s);
+  for (int k = 0; k < 4; ++k) {
+    memcpy(buf, ej_set_field(s, names[k]), (size_t)n * nc[k] * sizeof *buf);
+    buf += (size_t)n * nc[k];
+  }
+  return buf;
+}
+
 /* 25 steps of a jittered, compressed and sheared block with bond breaking (about 1300 particles:
  * three chunks of 512) on 1 and on 2 threads: positions, velocities, stress and damage must be
  * bitwise identical (gather form, per-row sums, the F_n reuse of pass 0 included). */
@@ -697,14 +710,9 @@ static void det_run(int threads, const char *dir, ej_real **out, ej_idx *n_out)
   ck_assert_int_eq(rc, EJ_OK);
   ej_set *s = sim->sets[0];
   const ej_idx n = ej_set_count(s);
-  const char *names[] = {"x", "v", "stress", "damage"};
-  const int nc[] = {3, 3, 6, 1};
-  ej_real *buf = malloc((size_t)n * 13 * sizeof *buf), *p = buf;
+  ej_real *buf = malloc((size_t)n * 13 * sizeof *buf);
   ck_assert_ptr_nonnull(buf);
-  for (int k = 0; k < 4; ++k) {
-    memcpy(p, ej_set_field(s, names[k]), (size_t)n * nc[k] * sizeof *p);
-    p += (size_t)n * nc[k];
-  }
+  copy_state(s, buf);
   const ej_real *dmg = ej_set_field(s, "damage");
   double dsum = 0;
   for (ej_idx i = 0; i < n; ++i) dsum += dmg[i];
@@ -763,14 +771,9 @@ static void skip_run(bool skip, ej_real **out, uint8_t **flags_out, ej_idx *n_ou
   rc = ej_sim_run(r.sim);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
-  const char *names[] = {"x", "v", "stress", "damage"};
-  const int nc[] = {3, 3, 6, 1};
-  ej_real *buf = malloc((size_t)n * 14 * sizeof *buf), *p = buf;
+  ej_real *buf = malloc((size_t)n * 14 * sizeof *buf);
   ck_assert_ptr_nonnull(buf);
-  for (int k = 0; k < 4; ++k) {
-    memcpy(p, ej_set_field(s, names[k]), (size_t)n * nc[k] * sizeof *p);
-    p += (size_t)n * nc[k];
-  }
+  ej_real *p = copy_state(s, buf);
   const int32_t *failed = ej_set_field_int(s, "failed");
   for (ej_idx i = 0; i < n; ++i) p[i] = failed[i];
   const ej_nbr *nb = &s->list->pub;
