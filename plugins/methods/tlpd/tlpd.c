@@ -339,6 +339,8 @@ typedef struct tlpd_state {
   size_t bk_ncell;
   int32_t *bk_cell;           /* [n] reference cell of particle i */
   int64_t *bk_nskip;          /* [n] sweeps skipped (the counters op sums them) */
+  uint8_t *bk_hot;            /* [n] consecutive sweeps whose slack lasted less than a step: from 2 on the
+                               * slack (a square root per bond) is computed only every 8th sweep */
   uint8_t *bk_m;              /* [n] row i's block: the cells within bk_m[i] of its own in each direction
                                * (its longest bond over the cell size, rounded up) */
   uint8_t *bk_fseen;          /* [n] failed, as counted in bk_fcell */
@@ -454,8 +456,8 @@ static void tlpd_free_arrays(tlpd_state *s)
   ej_free(s->bk_gen), ej_free(s->bk_cf), ej_free((void *)s->bk_dcell), ej_free((void *)s->bk_fcell);
   ej_free((void *)s->bk_tcell);
   s->bk_tcell = NULL;
-  ej_free(s->bk_gok), ej_free(s->bk_src), ej_free(s->bk_m), ej_free(s->bk_nskip);
-  s->bk_gok = s->bk_m = NULL, s->bk_src = NULL, s->bk_nskip = NULL;
+  ej_free(s->bk_gok), ej_free(s->bk_src), ej_free(s->bk_m), ej_free(s->bk_nskip), ej_free(s->bk_hot);
+  s->bk_gok = s->bk_m = s->bk_hot = NULL, s->bk_src = NULL, s->bk_nskip = NULL;
   s->bk_cell = NULL, s->bk_fseen = s->bk_cf = NULL, s->bk_budget = s->bk_slack = NULL, s->bk_fsum = NULL;
   s->bk_gen = NULL, s->bk_dcell = NULL, s->bk_fcell = NULL, s->bk_on = false;
   tlpd_grade_free(s);
@@ -981,6 +983,7 @@ static void tlpd_skip_setup(tlpd_state *s, ej_set *set)
   s->bk_budget = ej_calloc(nn, sizeof *s->bk_budget);
   s->bk_m = ej_malloc(nn);
   s->bk_nskip = ej_calloc(nn, sizeof *s->bk_nskip);
+  s->bk_hot = ej_calloc(nn, 1);
   s->bk_fsum = ej_calloc(nn, sizeof *s->bk_fsum);
   s->bk_gen = ej_calloc(nn, sizeof *s->bk_gen);
   s->bk_cf = ej_calloc(nn, 1);
@@ -990,7 +993,7 @@ static void tlpd_skip_setup(tlpd_state *s, ej_set *set)
   s->bk_fcell = ej_malloc(s->bk_ncell * sizeof *s->bk_fcell);
   s->bk_tcell = ej_malloc(s->bk_ncell * sizeof *s->bk_tcell);
   if (!s->bk_cell || !s->bk_fseen || !s->bk_budget || !s->bk_slack || !s->bk_fsum || !s->bk_gen || !s->bk_cf ||
-      !s->bk_dcell || !s->bk_fcell || !s->bk_tcell || !s->bk_gok || !s->bk_src || !s->bk_m || !s->bk_nskip)
+      !s->bk_dcell || !s->bk_fcell || !s->bk_tcell || !s->bk_gok || !s->bk_src || !s->bk_m || !s->bk_nskip || !s->bk_hot)
     return; /* tlpd_free_arrays frees what was allocated */
   /* owned ids: a permutation of 0..n-1 (sim.c numbers a set's particles, a sort permutes them);
    * otherwise the ghosts' sources are unknown and every row with a ghost neighbour sweeps */
@@ -2054,7 +2057,7 @@ static ej_err tlpd_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass
  * nonzero iff a flag changed. check_fail is a constant at both call sites (two vector loops). */
 TLPD_ALWAYS_INLINE int tlpd_break_row(const tlpd_state *s, const ej_real *restrict x, const ej_real *restrict x0,
                                       const ej_real lim, const int32_t *restrict failed, const bool check_fail,
-                                      uint8_t *restrict fl, const ej_idx i, ej_real *slack)
+                                      uint8_t *restrict fl, const ej_idx i, const bool want, ej_real *slack)
 {
   const ej_real xi0 = x[3 * i], xi1 = x[3 * i + 1], xi2 = x[3 * i + 2];
   const ej_real Xi0 = x0[3 * i], Xi1 = x0[3 * i + 1], Xi2 = x0[3 * i + 2];
@@ -2062,7 +2065,7 @@ TLPD_ALWAYS_INLINE int tlpd_break_row(const tlpd_state *s, const ej_real *restri
   const ej_idx *restrict idx = s->idx;
   int changed = 0;
   ej_real mn = INFINITY;
-  const bool fin = lim < INFINITY; /* a critical stretch: the skip's slack is finite */
+  const bool fin = want && lim < INFINITY; /* the skip's slack wanted and finite (want: a constant at each call) */
 #if defined(_OPENMP)
 #pragma omp simd reduction(| : changed) reduction(min : mn)
 #endif
@@ -2082,7 +2085,7 @@ TLPD_ALWAYS_INLINE int tlpd_break_row(const tlpd_state *s, const ej_real *restri
     const ej_real sl = (nf & TLPD_BROKEN) || !fin ? INFINITY : (a2 - ly2 - 1e-12 * a2) / (2 * sqrt(a2));
     mn = sl < mn ? sl : mn;
   }
-  *slack = mn;
+  *slack = want ? mn : -1; /* not computed: the row sweeps again next step */
   return changed;
 }
 
@@ -2261,8 +2264,11 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
       if (measured && !s->bk_gok[i]) s->bk_gok[i] = s->jmax[i] < s->n ? 1 : tlpd_skip_ghosts(s, id, i);
       bool skip = measured && s->bk_gok[i] == 1 && s->bk_cf[i] == (uint8_t)check_fail;
       if (skip) {
+        const bool first = s->bk_budget[i] == 0; /* the first step since the row's last sweep */
         s->bk_budget[i] += bdm;
         skip = 2 * s->bk_budget[i] * (1 + 1e-9) < s->bk_slack[i]; /* no bond can have reached the limit */
+        if (!skip && first) s->bk_hot[i] = (uint8_t)(s->bk_hot[i] < 255 ? s->bk_hot[i] + 1 : 9);
+        else if (skip) s->bk_hot[i] = 0;
       }
       if (skip && check_fail && s->bk_fsum[i] != bfs) {
         /* a particle of the block failed since the row's last sweep: does one end an intact bond
@@ -2286,8 +2292,11 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
       s->bk_cf[i] = (uint8_t)check_fail, s->bk_fsum[i] = bfs, s->bk_budget[i] = 0;
     }
     ej_real slack;
-    const int changed = check_fail ? tlpd_break_row(s, x, x0, lim, failed, true, flags, i, &slack)
-                                   : tlpd_break_row(s, x, x0, lim, failed, false, flags, i, &slack);
+    const bool want = skip_on && (s->bk_hot[i] < 2 || (s->bk_hot[i] & 7) == 0);
+    const int changed = check_fail ? (want ? tlpd_break_row(s, x, x0, lim, failed, true, flags, i, true, &slack)
+                                           : tlpd_break_row(s, x, x0, lim, failed, true, flags, i, false, &slack))
+                                   : (want ? tlpd_break_row(s, x, x0, lim, failed, false, flags, i, true, &slack)
+                                           : tlpd_break_row(s, x, x0, lim, failed, false, flags, i, false, &slack));
     if (skip_on) s->bk_slack[i] = slack;
     const bool dirty = changed != 0;
     if (dirty) {
@@ -2392,6 +2401,9 @@ static ej_err tlpd_stable_dt(void *state, const ej_set *set, ej_range r, ej_real
                               .hsum_f = ej_set_field(set, "pd_hsum"), .status = ej_set_field_int(set, "pd_status"),
                               .flags = ej_set_bond_flags(set)};
     const ej_idx n = s->n;
+    int32_t tc = -1; /* the skip's block of the last row (post_step's grid) and its last break */
+    int tm = 0;
+    ej_real tblk = 0;
     for (ej_idx i = r.begin; i < r.end; ++i) {
       if (!s->row_ready[i]) continue;
       /* Recomputed when the family changed after dt_fam was computed: dt_fam,i reads row i
@@ -2409,8 +2421,11 @@ static ej_err tlpd_stable_dt(void *state, const ej_set *set, ej_range r, ej_real
       bool stale = !(dt_fam[i] > 0);
       /* the skip's grid (post_step): no break in row i's block since dt_fam was computed, and no
        * ghost neighbour (read as the set's last break below), so the scan would find tf < dt_fam_t */
-      if (!stale && !(dt_fam_t[i] > tr) && s->bk_on && s->jmax[i] < n &&
-          tlpd_block_tmax(s, s->bk_cell[i], s->bk_m[i]) < dt_fam_t[i])
+      if (!stale && !(dt_fam_t[i] > tr) && s->bk_on && s->jmax[i] < n) {
+        if (s->bk_cell[i] != tc || s->bk_m[i] != tm) /* rows of one cell share it */
+          tc = s->bk_cell[i], tm = s->bk_m[i], tblk = tlpd_block_tmax(s, tc, tm);
+      }
+      if (!stale && !(dt_fam_t[i] > tr) && s->bk_on && s->jmax[i] < n && tblk < dt_fam_t[i])
         ;
       else if (!stale && !(dt_fam_t[i] > tr)) {
         ej_real tf = tbrk[i]; /* the family's last break (a max: vectorises, one gather per bond) */
