@@ -2089,43 +2089,33 @@ TLPD_ALWAYS_INLINE int tlpd_break_row(const tlpd_state *s, const ej_real *restri
   return changed;
 }
 
-/* Bond-break skip (tlpd_state.bk_*): the largest displacement maximum of the cells within m of cell c
- * in each direction, and the sum of their failure counts. */
-static void tlpd_skip_block(const tlpd_state *s, int32_t c, int m, ej_real *dmax, int64_t *fsum)
+/* Bond-break skip (tlpd_state.bk_*): cell c's grid coordinates. */
+static inline void tlpd_cell_coords(const tlpd_state *s, int32_t c, int q[3])
 {
-  const int n0 = s->bk_nc[0], n1 = s->bk_nc[1], n2 = s->bk_nc[2];
-  const int q0 = c % n0, q1 = (c / n0) % n1, q2 = c / (n0 * n1);
-  uint64_t dm = 0;
-  int64_t fs = 0;
-  for (int c2 = q2 > m ? q2 - m : 0; c2 <= q2 + m && c2 < n2; ++c2)
-    for (int c1 = q1 > m ? q1 - m : 0; c1 <= q1 + m && c1 < n1; ++c1)
-      for (int c0 = q0 > m ? q0 - m : 0; c0 <= q0 + m && c0 < n0; ++c0) {
-        const size_t cc = ((size_t)c2 * (size_t)n1 + (size_t)c1) * (size_t)n0 + (size_t)c0;
-        const uint64_t d = atomic_load_explicit(&s->bk_dcell[cc], memory_order_relaxed);
-        dm = d > dm ? d : dm; /* non-negative doubles order as their bits */
-        fs += atomic_load_explicit(&s->bk_fcell[cc], memory_order_relaxed);
-      }
-  ej_real v;
-  memcpy(&v, &dm, sizeof v);
-  *dmax = v, *fsum = fs;
+  q[0] = c % s->bk_nc[0], q[1] = (c / s->bk_nc[0]) % s->bk_nc[1], q[2] = c / (s->bk_nc[0] * s->bk_nc[1]);
 }
 
-/* The last bond break in the cells within m of cell c (0: none since the start). */
-static ej_real tlpd_block_tmax(const tlpd_state *s, int32_t c, int m)
+/* Over the cells within m of cell c in each direction: the largest of bits[] (non-negative doubles
+ * stored as their bits, which order as the values) and, with cnt, the sum of cnt[]. */
+static ej_real tlpd_block_scan(const tlpd_state *s, int32_t c, int m, const _Atomic uint64_t *bits,
+                               const atomic_llong *cnt, int64_t *sum)
 {
   const int n0 = s->bk_nc[0], n1 = s->bk_nc[1], n2 = s->bk_nc[2];
-  const int q0 = c % n0, q1 = (c / n0) % n1, q2 = c / (n0 * n1);
-  uint64_t tm = 0;
-  for (int c2 = q2 > m ? q2 - m : 0; c2 <= q2 + m && c2 < n2; ++c2)
-    for (int c1 = q1 > m ? q1 - m : 0; c1 <= q1 + m && c1 < n1; ++c1)
-      for (int c0 = q0 > m ? q0 - m : 0; c0 <= q0 + m && c0 < n0; ++c0) {
-        const uint64_t t =
-            atomic_load_explicit(&s->bk_tcell[((size_t)c2 * (size_t)n1 + (size_t)c1) * (size_t)n0 + (size_t)c0],
-                                 memory_order_relaxed);
-        tm = t > tm ? t : tm;
+  int q[3];
+  tlpd_cell_coords(s, c, q);
+  uint64_t mx = 0;
+  int64_t sm = 0;
+  for (int c2 = q[2] > m ? q[2] - m : 0; c2 <= q[2] + m && c2 < n2; ++c2)
+    for (int c1 = q[1] > m ? q[1] - m : 0; c1 <= q[1] + m && c1 < n1; ++c1)
+      for (int c0 = q[0] > m ? q[0] - m : 0; c0 <= q[0] + m && c0 < n0; ++c0) {
+        const size_t cc = ((size_t)c2 * (size_t)n1 + (size_t)c1) * (size_t)n0 + (size_t)c0;
+        const uint64_t b = atomic_load_explicit(&bits[cc], memory_order_relaxed);
+        mx = b > mx ? b : mx;
+        if (cnt) sm += atomic_load_explicit(&cnt[cc], memory_order_relaxed);
       }
+  if (sum) *sum = sm;
   ej_real v;
-  memcpy(&v, &tm, sizeof v);
+  memcpy(&v, &mx, sizeof v);
   return v;
 }
 
@@ -2135,19 +2125,17 @@ static ej_real tlpd_block_tmax(const tlpd_state *s, int32_t c, int m)
  * configuration as the image; a periodic image's is not (such rows always sweep). */
 static uint8_t tlpd_skip_ghosts(const tlpd_state *s, const int32_t *id, ej_idx i)
 {
-  const int n0 = s->bk_nc[0], n1 = s->bk_nc[1];
-  const int32_t ci = s->bk_cell[i];
-  const int a0 = ci % n0, a1 = (ci / n0) % n1, a2 = ci / (n0 * n1);
+  int a[3], b[3];
+  tlpd_cell_coords(s, s->bk_cell[i], a);
+  const int m = s->bk_m[i];
   for (ej_off k = s->off[i]; k < s->off[i + 1]; ++k) {
     const ej_idx j = s->idx[k];
     if (j < s->n) continue;
     if (!id || id[j] < 0 || id[j] >= s->n) return 2;
     const ej_idx src = s->bk_src[id[j]];
     if (src < 0) return 2;
-    const int32_t cj = s->bk_cell[src];
-    const int b0 = cj % n0, b1 = (cj / n0) % n1, b2 = cj / (n0 * n1);
-    const int m = s->bk_m[i];
-    if (abs(a0 - b0) > m || abs(a1 - b1) > m || abs(a2 - b2) > m) return 2;
+    tlpd_cell_coords(s, s->bk_cell[src], b);
+    if (abs(a[0] - b[0]) > m || abs(a[1] - b[1]) > m || abs(a[2] - b[2]) > m) return 2;
   }
   return 1;
 }
@@ -2258,7 +2246,8 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
     if (skip_on) {
       const int32_t c = s->bk_cell[i];
       const int m = s->bk_m[i];
-      if (c != bc || m != bm) bc = c, bm = m, tlpd_skip_block(s, c, m, &bdm, &bfs); /* rows of one cell share it */
+      if (c != bc || m != bm) /* rows of one cell share it */
+        bc = c, bm = m, bdm = tlpd_block_scan(s, c, m, s->bk_dcell, s->bk_fcell, &bfs);
       const bool measured = s->bk_gen[i] != 0 && s->bk_gen[i] != gen;
       s->bk_gen[i] = gen;
       if (measured && !s->bk_gok[i]) s->bk_gok[i] = s->jmax[i] < s->n ? 1 : tlpd_skip_ghosts(s, id, i);
@@ -2419,15 +2408,16 @@ static ej_err tlpd_stable_dt(void *state, const ej_set *set, ej_range r, ej_real
        * recomputed every family (a full bond sweep per step while a blast breaks bonds; 30 % of
        * the fine buried-charge step after set-up). */
       bool stale = !(dt_fam[i] > 0);
-      /* the skip's grid (post_step): no break in row i's block since dt_fam was computed, and no
-       * ghost neighbour (read as the set's last break below), so the scan would find tf < dt_fam_t */
-      if (!stale && !(dt_fam_t[i] > tr) && s->bk_on && s->jmax[i] < n) {
+      /* quiet: no break anywhere since dt_fam was computed, or (the skip's grid, post_step) none in
+       * row i's block and no ghost neighbour (read as the set's last break below): the scan would
+       * find tf < dt_fam_t */
+      bool quiet = dt_fam_t[i] > tr;
+      if (!stale && !quiet && s->bk_on && s->jmax[i] < n) {
         if (s->bk_cell[i] != tc || s->bk_m[i] != tm) /* rows of one cell share it */
-          tc = s->bk_cell[i], tm = s->bk_m[i], tblk = tlpd_block_tmax(s, tc, tm);
+          tc = s->bk_cell[i], tm = s->bk_m[i], tblk = tlpd_block_scan(s, tc, tm, s->bk_tcell, NULL, NULL);
+        quiet = tblk < dt_fam_t[i];
       }
-      if (!stale && !(dt_fam_t[i] > tr) && s->bk_on && s->jmax[i] < n && tblk < dt_fam_t[i])
-        ;
-      else if (!stale && !(dt_fam_t[i] > tr)) {
+      if (!stale && !quiet) {
         ej_real tf = tbrk[i]; /* the family's last break (a max: vectorises, one gather per bond) */
         const ej_idx *restrict idx = s->idx;
 #if defined(_OPENMP)
