@@ -318,7 +318,7 @@ static ej_err ej_parse_material(ej_loader *L, int i, const ej_node *mats)
   snprintf(what, sizeof what, "material '%s'", m->name);
   EJ_TRY(ej_expect_map(node, what));
   const ej_node *model = ej_node_get(node, "model"), *eos = ej_node_get(node, "eos");
-  const ej_param *strength = NULL;
+  const ej_param *strength = NULL, *rho_param = NULL;
   if (model) {
     const char *name = NULL;
     EJ_TRY(ej_expect_word(model, "material model", &name));
@@ -330,12 +330,18 @@ static ej_err ej_parse_material(ej_loader *L, int i, const ej_node *mats)
     EJ_ENSURE(m->mat_config, EJ_ERR_MEM, "out of memory");
     char mwhat[EJ_WHAT_MAX];
     snprintf(mwhat, sizeof mwhat, "material '%s' (%s)", m->name, name);
-    static const char *const skip[] = {"rho0", "eos", "model", NULL};
-    EJ_TRY(ej_params_apply(strength, m->mat_config, node, mwhat, skip, m->mat_ops->check_config));
+    /* rho0 is the material's; a strength model that declares a rho0 parameter (jh2: mu = rho/rho0 -
+     * 1) receives the same value */
+    static const char *const skip[] = {"rho0", "eos", "model", NULL}, *const skip_eos[] = {"eos", "model", NULL};
+    for (const ej_param *p = strength; p && p->name; ++p)
+      if (!strcmp(p->name, "rho0")) rho_param = p;
+    EJ_TRY(ej_params_apply(strength, m->mat_config, node, mwhat, rho_param ? skip_eos : skip,
+                           m->mat_ops->check_config));
   }
   ej_mat_cfg cfg = {0};
   EJ_TRY(ej_apply_with(ej_mat_params, &cfg, node, what, ej_mat_manual, strength, NULL));
-  m->rho0 = cfg.rho0;
+  /* (the strength table's rho0, when it has one, took the key: same value, same unit) */
+  m->rho0 = rho_param ? *(const ej_real *)((const char *)m->mat_config + rho_param->offset) : cfg.rho0;
   if (eos) EJ_TRY(ej_parse_eos(L, m, eos));
   if (m->mat_ops && m->mat_ops->needs_eos && !m->eos_ops)
     return ej_error_input(&m->loc, "material '%s': strength model '%s' needs an equation of state (eos: {model: ...})",

@@ -578,8 +578,21 @@ static ej_err ej_sets_create(ej_sim *sim)
       }
     const ej_material *mat = s->model->mat;
     for (int k = 0; mat && k < mat->ops->n_hist; ++k) {
-      const ej_field_decl hd = {.name = mat->ops->hist_names[k], .kind = EJ_SCALAR, .flags = EJ_FIELD_OUTPUT,
-                                .unit = "1", .doc = "history variable of the strength model"};
+      /* A history variable named like a field the method or EOS declared (tlpd's "damage", the
+       * broken-bond fraction, against the "damage" of johnson_cook, dp_damage or jh2) would share
+       * that field, and the two writers would overwrite each other: it is named mat_<name>
+       * instead. The material reads its history through ej_set_hist, not by name. */
+      char hname[EJ_FIELD_NAME_LEN];
+      const char *hn = mat->ops->hist_names[k];
+      if (ej_set_find_field(s, hn) >= 0) {
+        const int len = snprintf(hname, sizeof hname, "mat_%s", hn);
+        EJ_ENSURE(len < (int)sizeof hname && ej_set_find_field(s, hname) < 0, EJ_ERR_PLUGIN,
+                  "set '%s': history variable '%s' of material model '%s' clashes with a field of the method", s->name,
+                  hn, mat->ops->name);
+        hn = hname;
+      }
+      const ej_field_decl hd = {.name = hn, .kind = EJ_SCALAR, .flags = EJ_FIELD_OUTPUT, .unit = "1",
+                                .doc = "history variable of the strength model"};
       EJ_TRY(ej_set_add_field(s, &hd, &s->f_hist[k]));
       s->n_hist = k + 1;
       s->foreign_mask |= UINT64_C(1) << s->f_hist[k]; /* written by the strength model */
