@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Material-point stress paths against closed forms (drucker_prager, dp_cap, von_mises,
-johnson_cook, soil_evp).
+johnson_cook, soil_evp, jh2).
 
 Runs the unit-test binaries with EJ_MP_CSV_DIR set: each path test then writes its path and the
 closed-form reference as CSV (tests/unit/material_point_driver.h). This script plots every path
@@ -17,6 +17,8 @@ References (closed forms, see each plugin README):
   vm_uniaxial         sigma_y0 + E H/(E + H) (eps - eps_y)
   jc_hardening        A + B eps_p^n
   evp_steady_shear    p [mu_s + (mu_2 - mu_s) g/(g + xi sqrt p)] (001 §2.5, sqrt(p) erratum)
+  jh2_intact          sigma_HEL A (p* + T*)^N, the JH2 intact strength (002 Eq 21, granite of 002 Table 1)
+  jh2_softening       sigma_HEL (sigma_i* - D (sigma_i* - sigma_f*)), D = eps_p / (D1 (p* + T*)^D2) at 80 MPa
 
 Usage: /usr/bin/python3 validation/material_points/run.py --build BUILD_DIR
 """
@@ -34,7 +36,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-TESTS = ["test_drucker_prager", "test_dp_cap", "test_von_mises", "test_johnson_cook", "test_soil_evp"]
+TESTS = ["test_drucker_prager", "test_dp_cap", "test_von_mises", "test_johnson_cook", "test_soil_evp", "test_jh2"]
 
 # name: (x column, computed column, exact column, error scale, tolerance, axis labels)
 CASES = {
@@ -47,6 +49,8 @@ CASES = {
     "vm_uniaxial": ("eps", "sxx", "sxx_exact", "max_abs", 1e-9, "axial strain", "sigma_xx [Pa]"),
     "jc_hardening": ("eps_p", "sxx", "sxx_exact", "max_abs", 1e-9, "plastic strain", "sigma_xx [Pa]"),
     "evp_steady_shear": ("gamma_dot", "tau", "tau_exact", "max_abs", 1e-8, "shear rate [1/s]", "tau [Pa]"),
+    "jh2_intact": ("p", "seq", "seq_exact", "max_abs", 1e-9, "pressure [Pa]", "yield sigma_eq [Pa]"),
+    "jh2_softening": ("eps_p", "seq", "seq_exact", "max_abs", 1e-9, "plastic strain", "sigma_eq [Pa]"),
 }
 
 
@@ -70,7 +74,7 @@ def main():
         last = r.stdout.strip().splitlines()[-1] if r.stdout.strip() else ""
         print(f"{t}: exit {r.returncode} ({last})")
         ok = ok and r.returncode == 0
-    fig, axes = plt.subplots(3, 3, figsize=(14, 11))
+    fig, axes = plt.subplots(3, 4, figsize=(18, 11))
     for ax, (name, (xc, yc, ec, mode, tol, xl, yl)) in zip(axes.flat, CASES.items()):
         path = os.path.join(tmp, name + ".csv")
         if not os.path.exists(path):
