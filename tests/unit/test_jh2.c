@@ -328,16 +328,58 @@ START_TEST(test_config)
 }
 END_TEST
 
+/* A scene run to its end with the plugins of this suite linked in (tlpd, jh2, sph, pd_sph, jwl),
+ * in a fresh temporary folder (dir; the scene is dir/s.yaml, written by the caller). */
+typedef struct srun {
+  char dir[32], path[64];
+  ej_registry *reg;
+  ej_scene *sc;
+  ej_sim *sim;
+} srun;
+
+static void srun_dir(srun *r)
+{
+  memset(r, 0, sizeof *r);
+  snprintf(r->dir, sizeof r->dir, "/tmp/ej_jh2_XXXXXX");
+  ck_assert_ptr_nonnull(mkdtemp(r->dir));
+  snprintf(r->path, sizeof r->path, "%s/s.yaml", r->dir);
+}
+
+static void srun_go(srun *r, const char *who)
+{
+  ck_assert_int_eq(ej_registry_create(&r->reg), EJ_OK);
+  const ej_plugin_info *infos[] = {ej_plugin_tlpd_info(), ej_plugin_jh2_info(), ej_plugin_sph_info(),
+                                   ej_plugin_pd_sph_info(), ej_plugin_jwl_info()};
+  for (int k = 0; k < 5; ++k) ck_assert_int_eq(ej_registry_add_static(r->reg, infos[k]), EJ_OK);
+  ej_err rc = ej_scene_load(r->path, r->reg, &r->sc);
+  if (rc == EJ_OK) {
+    ej_run_opts o = {.struct_size = sizeof o, .threads = 1};
+    rc = ej_sim_create(r->sc, r->reg, &o, &r->sim);
+  }
+  if (rc == EJ_OK) rc = ej_sim_run(r->sim);
+  if (rc != EJ_OK) ej_error_report(who);
+  ck_assert_int_eq(rc, EJ_OK);
+}
+
+static void srun_close(srun *r)
+{
+  ej_sim_destroy(r->sim);
+  ej_scene_destroy(r->sc);
+  ej_registry_destroy(r->reg);
+  char cmd[64];
+  snprintf(cmd, sizeof cmd, "rm -rf %s", r->dir);
+  ck_assert_int_eq(system(cmd), 0);
+}
+
 /* Under tlpd: a granite bar (examples/materials/granite_002.yaml's constants) pulled apart at its
  * ends. The material's history variable "damage" would share tlpd's field of the same name (the
  * broken-bond fraction): the core names it mat_damage. Every particle that jh2 fails (the
  * tension model) has lost all its bonds (tlpd point failure: damage 1) and has mat_damage 1. */
 START_TEST(test_under_tlpd)
 {
-  char dir[] = "/tmp/ej_jh2_XXXXXX", path[128];
-  ck_assert_ptr_nonnull(mkdtemp(dir));
-  snprintf(path, sizeof path, "%s/s.yaml", dir);
-  FILE *f = fopen(path, "w");
+  srun r;
+  srun_dir(&r);
+  FILE *f = fopen(r.path, "w");
   ck_assert_ptr_nonnull(f);
   fprintf(f, "ejecta: 1\ndimension: 3\ntime: {end: 20 us, cfl: 0.3}\noutput: {file: %s/o.h5}\n"
              "materials: {g: {model: jh2, rho0: 2660, K: 21.9 GPa, G: 25.7 GPa, K2: -4500 GPa, K3: 300000 GPa, "
@@ -347,23 +389,10 @@ START_TEST(test_under_tlpd)
              "sets: {bar: {method: tlpd, material: g, shape: {box: {min: [0, 0, 0], max: [0.05, 0.012, 0.012]}}, "
              "spacing: 0.002, initial: [{region: {box: {min: [-1, -1, -1], max: [0.006, 1, 1]}}, velocity: [-3, 0, 0]}, "
              "{region: {box: {min: [0.044, -1, -1], max: [1, 1, 1]}}, velocity: [3, 0, 0]}]}}\n",
-          dir);
+          r.dir);
   fclose(f);
-  ej_registry *reg;
-  ej_scene *sc;
-  ej_sim *sim;
-  ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_tlpd_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_jh2_info()), EJ_OK);
-  ej_err rc = ej_scene_load(path, reg, &sc);
-  if (rc == EJ_OK) {
-    ej_run_opts o = {.struct_size = sizeof o, .threads = 1};
-    rc = ej_sim_create(sc, reg, &o, &sim);
-  }
-  if (rc == EJ_OK) rc = ej_sim_run(sim);
-  if (rc != EJ_OK) ej_error_report("test_under_tlpd");
-  ck_assert_int_eq(rc, EJ_OK);
-  ej_set *s = sim->sets[0];
+  srun_go(&r, "test_under_tlpd");
+  ej_set *s = r.sim->sets[0];
   const ej_real *pd = ej_set_field(s, "damage"), *md = ej_set_field(s, "mat_damage");
   const int32_t *failed = ej_set_field_int(s, "failed");
   const ej_real *x = ej_set_field(s, "x");
@@ -380,12 +409,7 @@ START_TEST(test_under_tlpd)
   }
   ck_assert_msg(nf > 0, "the pull should fail particles");
   ck_assert_msg(nf < (int)ej_set_count(s) / 2, "%d of %d failed", nf, (int)ej_set_count(s));
-  ej_sim_destroy(sim);
-  ej_scene_destroy(sc);
-  ej_registry_destroy(reg);
-  char cmd[256];
-  snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
-  ck_assert_int_eq(system(cmd), 0);
+  srun_close(&r);
 }
 END_TEST
 
@@ -393,10 +417,10 @@ END_TEST
  * and the crushed zone starts: particles next to the hole fail, none beyond 8 mm of the axis. */
 START_TEST(test_blast_hole_example)
 {
-  char dir[] = "/tmp/ej_jh2_XXXXXX", path[128], line[1024];
-  ck_assert_ptr_nonnull(mkdtemp(dir));
-  snprintf(path, sizeof path, "%s/s.yaml", dir);
-  FILE *in = fopen(EJ_TEST_SOURCE_DIR "/examples/granite_blast_hole.yaml", "r"), *out = fopen(path, "w");
+  srun r;
+  char line[1024];
+  srun_dir(&r);
+  FILE *in = fopen(EJ_TEST_SOURCE_DIR "/examples/granite_blast_hole.yaml", "r"), *out = fopen(r.path, "w");
   ck_assert_ptr_nonnull(in);
   ck_assert_ptr_nonnull(out);
   int edits = 0;
@@ -405,7 +429,7 @@ START_TEST(test_blast_hole_example)
       fprintf(out, "time: {end: 60 us, cfl: 0.3, max_steps: 100}\n");
       ++edits;
     } else if (!strncmp(line, "output:", 7)) {
-      fprintf(out, "output: {file: %s/o.h5}\n", dir);
+      fprintf(out, "output: {file: %s/o.h5}\n", r.dir);
       ++edits;
     } else {
       fputs(line, out);
@@ -414,22 +438,8 @@ START_TEST(test_blast_hole_example)
   fclose(in);
   fclose(out);
   ck_assert_int_eq(edits, 2);
-  ej_registry *reg;
-  ej_scene *sc = NULL;
-  ej_sim *sim = NULL;
-  ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
-  const ej_plugin_info *infos[] = {ej_plugin_tlpd_info(), ej_plugin_jh2_info(), ej_plugin_sph_info(),
-                                   ej_plugin_pd_sph_info(), ej_plugin_jwl_info()};
-  for (int k = 0; k < 5; ++k) ck_assert_int_eq(ej_registry_add_static(reg, infos[k]), EJ_OK);
-  ej_err rc = ej_scene_load(path, reg, &sc);
-  if (rc == EJ_OK) {
-    ej_run_opts o = {.struct_size = sizeof o, .threads = 1};
-    rc = ej_sim_create(sc, reg, &o, &sim);
-  }
-  if (rc == EJ_OK) rc = ej_sim_run(sim);
-  if (rc != EJ_OK) ej_error_report("test_blast_hole_example");
-  ck_assert_int_eq(rc, EJ_OK);
-  ej_set *s = sim->sets[1];
+  srun_go(&r, "test_blast_hole_example");
+  ej_set *s = r.sim->sets[1];
   ck_assert_str_eq(ej_set_name(s), "rock");
   const ej_real *x = ej_set_field(s, "x"), *x0 = ej_set_field(s, "x0");
   const int32_t *failed = ej_set_field_int(s, "failed");
@@ -443,12 +453,7 @@ START_TEST(test_blast_hole_example)
     }
   }
   ck_assert_msg(nf > 10 && rmax < 8e-3, "%d failed, out to %g m", nf, rmax);
-  ej_sim_destroy(sim);
-  ej_scene_destroy(sc);
-  ej_registry_destroy(reg);
-  char cmd[256];
-  snprintf(cmd, sizeof cmd, "rm -rf %s", dir);
-  ck_assert_int_eq(system(cmd), 0);
+  srun_close(&r);
 }
 END_TEST
 
