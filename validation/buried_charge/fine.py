@@ -6,8 +6,9 @@ scenes at DOB 3 cm and 8 cm (examples/buried_charge_sph_fine.yaml,
 examples/buried_charge_sph_fine_dob8.yaml), in one figure (one row per depth of burial) with the
 coarse tlpd and SPH-soil scenes (examples/buried_charge.yaml, examples/buried_charge_sph.yaml,
 examples/buried_charge_dob8.yaml, 0.5 ms). The tlpd scene at DOB 3 cm has 1.37 M particles (3.75 /
-7.5 mm, one lattice for charge and soil, since the README's ninth pass), the other three 1.13 M
-(4 / 8 mm, each set's lattice on its own corner).
+7.5 mm, one lattice for charge and soil, since the README's ninth pass), the tlpd scene at DOB 8 cm
+1.13 M (4 / 8 mm, one lattice since the thirteenth pass), the two SPH-soil scenes 1.13 M (4 / 8 mm,
+each set's lattice on its own corner).
 
     /usr/bin/python3 validation/buried_charge/fine.py --full [--build build] [--outdir /tmp/bc_fine]
         [--threads 2] [--reuse] [--fine-sph OUT.h5] [--fine-sph-dob8 OUT.h5[,RESTART.h5]]
@@ -18,7 +19,8 @@ Without --full (and without any --fine-* output) it only says so and exits 0: `m
 
 Runs what is missing (on 2 cores: the fine SPH scenes about 40 min at DOB 3 cm and 80 min at
 8 cm; the fine tlpd scenes about 101 min at DOB 3 cm (1.37 M particles, twelfth pass; 138 min in
-the ninth) and at most 116 min at 8 cm, measured on 2 threads), or reads the outputs given (--fine-sph, --fine-sph-dob8,
+the ninth) and 61 min at 8 cm (thirteenth pass, with tlpd's break_skip; 116 min in the sixth),
+measured on 2 threads), or reads the outputs given (--fine-sph, --fine-sph-dob8,
 --fine-tlpd, --fine-tlpd-dob8; an unfinished run's OUT.h5.partial is read up to its last frame;
 "A,B" reads a run A and its restart B from A's checkpoint as one curve), or takes a fine curve
 from an earlier CSV of this script (--prior-csv: the outputs are 2-4 GB each and are not kept).
