@@ -82,16 +82,27 @@ typedef struct pair_out {
   double p0[3], k0, p1[3], k1, vrel0, vrel1, gap;
 } pair_out;
 
+static int pair_dim = 3; /* 2: the same two particles as squares in a plane-strain scene */
+
 static void pair_run(crun *r, const char *opts, double end, double cfl, double v_left, double v_right, pair_out *o)
 {
   char y[2048];
-  snprintf(y, sizeof y,
-           "ejecta: 1\ndimension: 3\ntime: {end: %g, cfl: %g}\n" MAT
-           "sets: {b: {method: tlpd, material: m, %s, spacing: 0.01,\n"
-           "  shape: {union: [{box: {min: [0, 0, 0], max: [0.01, 0.01, 0.01]}}, {box: {min: [0.05, 0, 0], max: [0.06, 0.01, 0.01]}}]},\n"
-           "  initial: [{region: {box: {min: [-1, -1, -1], max: [0.03, 1, 1]}}, velocity: [%g, 0, 0]},\n"
-           "            {region: {box: {min: [0.03, -1, -1], max: [1, 1, 1]}}, velocity: [%g, 0, 0]}]}}\n",
-           end, cfl, opts, v_left, v_right);
+  if (pair_dim == 3)
+    snprintf(y, sizeof y,
+             "ejecta: 1\ndimension: 3\ntime: {end: %g, cfl: %g}\n" MAT
+             "sets: {b: {method: tlpd, material: m, %s, spacing: 0.01,\n"
+             "  shape: {union: [{box: {min: [0, 0, 0], max: [0.01, 0.01, 0.01]}}, {box: {min: [0.05, 0, 0], max: [0.06, 0.01, 0.01]}}]},\n"
+             "  initial: [{region: {box: {min: [-1, -1, -1], max: [0.03, 1, 1]}}, velocity: [%g, 0, 0]},\n"
+             "            {region: {box: {min: [0.03, -1, -1], max: [1, 1, 1]}}, velocity: [%g, 0, 0]}]}}\n",
+             end, cfl, opts, v_left, v_right);
+  else
+    snprintf(y, sizeof y,
+             "ejecta: 1\ndimension: 2\ntime: {end: %g, cfl: %g}\n" MAT
+             "sets: {b: {method: tlpd, material: m, %s, spacing: 0.01,\n"
+             "  shape: {union: [{box: {min: [0, 0], max: [0.01, 0.01]}}, {box: {min: [0.05, 0], max: [0.06, 0.01]}}]},\n"
+             "  initial: [{region: {box: {min: [-1, -1], max: [0.03, 1]}}, velocity: [%g, 0]},\n"
+             "            {region: {box: {min: [0.03, -1], max: [1, 1]}}, velocity: [%g, 0]}]}}\n",
+             end, cfl, opts, v_left, v_right);
   crun_open(r, y);
   ej_set *s = r->sim->sets[0];
   ck_assert_int_eq(ej_set_count(s), 2);
@@ -160,6 +171,23 @@ START_TEST(test_contact_bounce_all) { bounce_energy("all"); }
 END_TEST
 START_TEST(test_contact_off_passes_through) { bounce("off", 0.5, false); }
 END_TEST
+
+/* The same bounce in 2D (plane strain, squares of 10 mm, V an area): the spring uses the 2-D
+ * micromodulus 12 K/(pi delta^3), about twice the 3-D spring of these particles (12/18 x delta/dx).
+ * Measured: balance / KE0 3e-16 and 2e-16, KE error 8.6e-4 and 1.6e-3 at cfl 0.25 and 0.125 (it
+ * does not fall with the step here, unlike 3D: not understood; asserted < 2e-3), rebound speed
+ * within 1e-3. With the 3-D formula (every dimension until 2026-11-30) the 2-D spring was 1/delta
+ * (33 per metre) times stiffer and the bounce created energy: balance / KE0 0.52 at cfl 0.25 (2.06
+ * at 0.5), KE +4.2 %. */
+START_TEST(test_contact_bounce_2d)
+{
+  pair_dim = 2;
+  const double e1 = bounce("unbonded", 0.25, true), e2 = bounce("unbonded", 0.125, true);
+  ck_assert_msg(e1 < 2e-3 && e2 < 2e-3, "kinetic energy error %g, %g", e1, e2);
+}
+END_TEST
+
+static void pair_dim_reset(void) { pair_dim = 3; }
 
 /* contact_law impact (fifth pass of validation/buried_charge): the same two detached particles
  * at 1 km/s relative (+600 and -400 m/s). The LAMMPS spring stores at most 15 c_s V^2 d^2/(2 delta)
@@ -337,9 +365,11 @@ static Suite *suite(void)
   Suite *s = suite_create("tlpd_contact");
   TCase *tc = tcase_create("core");
   tcase_set_timeout(tc, 60);
+  tcase_add_checked_fixture(tc, pair_dim_reset, pair_dim_reset);
   tcase_add_test(tc, test_contact_bounce_unbonded);
   tcase_add_test(tc, test_contact_bounce_all);
   tcase_add_test(tc, test_contact_off_passes_through);
+  tcase_add_test(tc, test_contact_bounce_2d);
   tcase_add_test(tc, test_contact_impact_stops_1kms);
   tcase_add_test(tc, test_inversion_point_failure);
   tcase_add_test(tc, test_contact_threads_bitwise);

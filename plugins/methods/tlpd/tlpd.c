@@ -1676,6 +1676,19 @@ static bool tlpd_bonded(const tlpd_state *s, const uint8_t *flags, ej_idx i, ej_
  * c = 240 m/s). No search-sourced formula of a PD contact of this form was found; this is ejecta's
  * law, documented in plugins/methods/tlpd/README.md. */
 
+/* Spring constant of a contact pair, k = 15 c_s V_j / delta, with the PMB micromodulus of the
+ * bulk modulus in the set's dimension (LAMMPS's kshort is the 3-D one, 18 K/(pi delta^4)): 2-D
+ * 12 K/(pi delta^3) (Silling & Askari 2005's 2-D form, V_j an area), 1-D 2 K/delta^2 (V_j a
+ * length). Until 2026-11-30 the 3-D formula served every dimension: with V_j an area it is
+ * 1/delta times too large in units of metres, at a 0.8 mm rock spacing a spring 2/omega = 19 ns
+ * against a 39 ns wave step (plugins/methods/tlpd/README.md, Limits). */
+static inline ej_real tlpd_contact_k(const tlpd_state *s, ej_real dl, ej_real volj)
+{
+  if (s->dim == 3) return 15.0 * 18.0 * s->K / (M_PI * dl * dl * dl * dl * dl) * volj; /* as before, bitwise */
+  if (s->dim == 2) return 15.0 * 12.0 * s->K / (M_PI * dl * dl * dl * dl) * volj;
+  return 15.0 * 2.0 * s->K / (dl * dl * dl) * volj;
+}
+
 /* contact force density on row i (f), its power share (pw, W/m^3: e_dot_i += pw vol0_i / m_i; pv:
  * the dissipated part, >= 0), stiffness sum (ksum) and viscous coefficient sum (csum, N s/m);
  * cells scanned in a fixed order, so the sum does not depend on threads */
@@ -1715,7 +1728,7 @@ static int tlpd_contact_row(const tlpd_state *s, const ej_set *set, ej_idx i, ej
         if (r2 >= d * d) continue;
         if (unb && tlpd_bonded(s, flags, i, j)) continue;
         const ej_real dl = dxj == dxi ? di : 0.5 * (di + tlpd_delta(s, dxj));
-        const ej_real k = 15.0 * 18.0 * s->K / (M_PI * dl * dl * dl * dl * dl) * vol0[j];
+        const ej_real k = tlpd_contact_k(s, dl, vol0[j]);
         const ej_real rr = sqrt(r2);
         ej_real fm = rr > 0 ? k * (d - rr) / rr : 0;
         const ej_real u0 = v[3 * i] - v[3 * j], u1 = v[3 * i + 1] - v[3 * j + 1], u2 = v[3 * i + 2] - v[3 * j + 2];
