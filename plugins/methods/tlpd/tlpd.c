@@ -1564,7 +1564,7 @@ static ej_err tlpd_pass_kinematics(tlpd_state *s, ej_set *set, const ej_nbr *nbr
  *   d_ij = min(0.9 |X_ij|, 1.35 lc_ij),   lc_ij = min(dx_i, dx_j) (LAMMPS: the lattice constant),
  * repel with the force density on i
  *   f_i = 15 c_s V_j (d_ij - r)/delta_ij (x_i - x_j)/r,   c_s = 18 K / (pi delta_ij^4)
- * (LAMMPS's kshort: the PMB micromodulus of the bulk modulus K; the 3-D formula in every dimension),
+ * (LAMMPS's kshort: the PMB micromodulus of the bulk modulus K; 2-D and 1-D: tlpd_contact_k),
  * delta_ij = (delta_i + delta_j)/2. Force V_i f_i = -(V_j f_j): antisymmetric, so momentum is
  * conserved to round-off; each row sums its own pairs (gather form). The pair is a spring of energy
  * U = V_i V_j 15 c_s (d - r)^2 / (2 delta); its power -dU/dt = F_ij.(v_i - v_j) is booked half per
