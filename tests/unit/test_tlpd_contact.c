@@ -251,6 +251,18 @@ START_TEST(test_contact_impact_stops_1kms)
 }
 END_TEST
 
+/* The impact law in 2D: the same pair at 1 km/s relative is stopped (no pass-through, rebound
+ * below half the approach speed, the heat booked). Its dashpot acts on the face lc^(dim-1), a
+ * length in 2D; with lc^2 (every dimension until 2026-11-30) the 2-D dashpot was 100 times too weak
+ * here and the pair passed through. */
+START_TEST(test_contact_impact_2d)
+{
+  pair_dim = 2;
+  double gap, vrel;
+  impact_run("impact", 0.5, &gap, &vrel);
+}
+END_TEST
+
 /* Two halves of an elastic block driven into each other at 2 x 3000 m/s (c = 866 m/s, dx = 10 mm; impact strain ~ v/c > 1):
  * the particles at the collision plane invert within a few steps. `inversion: abort` stops the
  * run with det F <= 0; `point_failure` fails them (all bonds broken, counted), the run reaches its
@@ -370,6 +382,7 @@ static Suite *suite(void)
   tcase_add_test(tc, test_contact_bounce_all);
   tcase_add_test(tc, test_contact_off_passes_through);
   tcase_add_test(tc, test_contact_bounce_2d);
+  tcase_add_test(tc, test_contact_impact_2d);
   tcase_add_test(tc, test_contact_impact_stops_1kms);
   tcase_add_test(tc, test_inversion_point_failure);
   tcase_add_test(tc, test_contact_threads_bitwise);

@@ -1735,7 +1735,11 @@ static int tlpd_contact_row(const tlpd_state *s, const ej_set *set, ej_idx i, ej
         if (imp && rr > 0) {
           const ej_real w = (ex * u0 + ey * u1 + ez * u2) / rr; /* normal relative speed, < 0 approaching */
           const ej_real rho = 0.5 * (rhoi + m[j] / vol0[j]), lc = fmin(dxi, dxj);
-          ej_real cv = lc * lc * rho * (ca * sqrt(Mlong / rho) + cb * fabs(w)); /* N s/m */
+          /* the face of the pair, lc^(dim-1): an area in 3-D, a length in 2-D (forces per unit
+           * thickness), 1 in 1-D; until 2026-11-30 lc^2 in every dimension, which made the 2-D
+           * dashpot 1/lc (per metre) too weak */
+          const ej_real face = s->dim == 3 ? lc * lc : s->dim == 2 ? lc : 1.0;
+          ej_real cv = face * rho * (ca * sqrt(Mlong / rho) + cb * fabs(w)); /* N s/m */
           /* at most the pair's inelastic stop in one step, c dt <= mu = m_i m_j/(m_i + m_j) (symmetric in
            * i, j): a stiffer dashpot would reverse the approach within the step. This clamp, not a
            * smaller step, keeps the first contact of a fast pair stable: a step bound from c would
