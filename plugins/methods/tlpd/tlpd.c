@@ -197,7 +197,7 @@ static const ej_param tlpd_params[] = {
     EJ_PARAM_ENUM(tlpd_config, contact_law, tlpd_claw_names, "spring",
                   "Contact force law (with contact unbonded/all): spring, LAMMPS's repulsion alone (elastic, stops "
                   "relative speeds up to ~2 sqrt(0.14 K/rho)); impact, the spring plus, on approaching pairs, the "
-                  "pairwise viscous pressure rho (alpha c |v_n| + beta v_n^2) on the face min(dx_i, dx_j)^2 (dissipative; "
+                  "pairwise viscous pressure rho (alpha c |v_n| + beta v_n^2) on the face min(dx_i, dx_j)^(dim-1) (dissipative; "
                   "heat into e, reported as contact_dissipated)."),
     EJ_PARAM_REAL(tlpd_config, contact_alpha, "1", 1.0, 0, 0, EJ_PF_HAS_MIN,
                   "contact_law impact: coefficient of the linear term rho alpha c |v_n| (c = sqrt((K + 4G/3)/rho0), "
