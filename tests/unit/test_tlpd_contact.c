@@ -87,22 +87,16 @@ static int pair_dim = 3; /* 2: the same two particles as squares in a plane-stra
 static void pair_run(crun *r, const char *opts, double end, double cfl, double v_left, double v_right, pair_out *o)
 {
   char y[2048];
-  if (pair_dim == 3)
-    snprintf(y, sizeof y,
-             "ejecta: 1\ndimension: 3\ntime: {end: %g, cfl: %g}\n" MAT
-             "sets: {b: {method: tlpd, material: m, %s, spacing: 0.01,\n"
-             "  shape: {union: [{box: {min: [0, 0, 0], max: [0.01, 0.01, 0.01]}}, {box: {min: [0.05, 0, 0], max: [0.06, 0.01, 0.01]}}]},\n"
-             "  initial: [{region: {box: {min: [-1, -1, -1], max: [0.03, 1, 1]}}, velocity: [%g, 0, 0]},\n"
-             "            {region: {box: {min: [0.03, -1, -1], max: [1, 1, 1]}}, velocity: [%g, 0, 0]}]}}\n",
-             end, cfl, opts, v_left, v_right);
-  else
-    snprintf(y, sizeof y,
-             "ejecta: 1\ndimension: 2\ntime: {end: %g, cfl: %g}\n" MAT
-             "sets: {b: {method: tlpd, material: m, %s, spacing: 0.01,\n"
-             "  shape: {union: [{box: {min: [0, 0], max: [0.01, 0.01]}}, {box: {min: [0.05, 0], max: [0.06, 0.01]}}]},\n"
-             "  initial: [{region: {box: {min: [-1, -1], max: [0.03, 1]}}, velocity: [%g, 0]},\n"
-             "            {region: {box: {min: [0.03, -1], max: [1, 1]}}, velocity: [%g, 0]}]}}\n",
-             end, cfl, opts, v_left, v_right);
+  /* the third coordinate of every point and vector, or none in 2D */
+  const bool d3 = pair_dim == 3;
+  const char *z0 = d3 ? ", 0" : "", *z1 = d3 ? ", 0.01" : "", *zm = d3 ? ", -1" : "", *zp = d3 ? ", 1" : "";
+  snprintf(y, sizeof y,
+           "ejecta: 1\ndimension: %d\ntime: {end: %g, cfl: %g}\n" MAT
+           "sets: {b: {method: tlpd, material: m, %s, spacing: 0.01,\n"
+           "  shape: {union: [{box: {min: [0, 0%s], max: [0.01, 0.01%s]}}, {box: {min: [0.05, 0%s], max: [0.06, 0.01%s]}}]},\n"
+           "  initial: [{region: {box: {min: [-1, -1%s], max: [0.03, 1%s]}}, velocity: [%g, 0%s]},\n"
+           "            {region: {box: {min: [0.03, -1%s], max: [1, 1%s]}}, velocity: [%g, 0%s]}]}}\n",
+           pair_dim, end, cfl, opts, z0, z1, z0, z1, zm, zp, v_left, z0, zm, zp, v_right, z0);
   crun_open(r, y);
   ej_set *s = r->sim->sets[0];
   ck_assert_int_eq(ej_set_count(s), 2);

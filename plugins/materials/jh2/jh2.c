@@ -161,10 +161,9 @@ static ej_err jh2_update(const void *state, ej_mat_batch *b)
     ej_real *Dp = &b->hist[JH2_H_D][i], *ep = &b->hist[JH2_H_EPS_P][i];
     ej_real *dpb = &b->hist[JH2_H_DP][i], *fl = &b->hist[JH2_H_FAILED][i];
     const ej_real mu = b->rho[i] / c->rho0 - 1;
-    ej_real dpdmu;
-    const ej_real p_poly = jh2_poly(s, mu, &dpdmu);
-    const ej_real p_eos = b->p ? b->p[i] : p_poly;
-    const ej_real Kt = b->p ? K : fmax(K, dpdmu);
+    ej_real dpdmu = K; /* the polynomial's tangent; K with an attached EOS */
+    const ej_real p_eos = b->p ? b->p[i] : jh2_poly(s, mu, &dpdmu);
+    const ej_real Kt = fmax(K, dpdmu);
     if (b->c) b->c[i] = mp_sound_speed(Kt, G, b->rho[i]);
     if (b->w_plastic) b->w_plastic[i] = 0;
     if (*fl != 0) {
