@@ -622,6 +622,76 @@ START_TEST(test_point_failure_detached)
 }
 END_TEST
 
+/* failure.cut_distance (seed 002 Sec. 2.4 (b)): a failed point also breaks the intact bonds whose
+ * reference segment passes within cut_distance dx of it. 2-D block, spacing 10 mm, horizon 3,
+ * partial volumes (families to 3.5 dx), one failed particle in the middle: every bond flag equals
+ * the rule evaluated here by projection (a different formula from the plugin's cross product), the
+ * flags are symmetric, and the cut breaks bonds beyond the failed particle's own. Returns the
+ * number of broken row entries. */
+static int64_t cut_case(double cut)
+{
+  trun r;
+  char yaml[512];
+  snprintf(yaml, sizeof yaml,
+           "ejecta: 1\ndimension: 2\ntime: {end: 1e-6}\n" MAT
+           "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0, 0], max: [0.11, 0.11]}}, spacing: 0.01, "
+           "failure: {cut_distance: %g}}}\n",
+           cut);
+  trun_open(&r, yaml);
+  ej_set *s = r.sim->sets[0];
+  const ej_idx n = ej_set_count(s);
+  const ej_nbr *nb = &s->list->pub;
+  const ej_real *x0 = ej_set_field(s, "x0");
+  ej_idx pa = -1;
+  for (ej_idx i = 0; i < n; ++i)
+    if (fabs(x0[3 * i] - 0.055) < 1e-9 && fabs(x0[3 * i + 1] - 0.055) < 1e-9) pa = i;
+  ck_assert(pa >= 0);
+  ej_set_field_int(s, "failed")[pa] = 1;
+  trun_compute(&r);
+  ck_assert_int_eq(s->mops->post_step(s->mstate, s, (ej_range){0, n}), EJ_OK);
+  const uint8_t *fl = ej_set_bond_flags(s);
+  const double dx = 0.01, R = 3 * dx, rc = cut * dx;
+  int64_t broken = 0, cut_only = 0;
+  const double *P = x0 + 3 * pa;
+  for (ej_idx i = 0; i < n; ++i)
+    for (ej_off k = nb->off[i]; k < nb->off[i + 1]; ++k) {
+      const ej_idx j = nb->idx[k];
+      const double *A = x0 + 3 * i, *B = x0 + 3 * j;
+      bool want = i == pa || j == pa;
+      if (!want && cut > 0) {
+        const double dpa = hypot(P[0] - A[0], P[1] - A[1]), dpb = hypot(P[0] - B[0], P[1] - B[1]);
+        const double ex = B[0] - A[0], ey = B[1] - A[1], L2 = ex * ex + ey * ey;
+        double t = ((P[0] - A[0]) * ex + (P[1] - A[1]) * ey) / L2;
+        t = t < 0 ? 0 : t > 1 ? 1 : t;
+        const double d = hypot(A[0] + t * ex - P[0], A[1] + t * ey - P[1]);
+        want = dpa < R * (1 - 1e-6) && dpb < R * (1 - 1e-6) && d < rc;
+        cut_only += want;
+      }
+      ck_assert_msg((fl[k] & 1) == want, "bond %d-%d: flag %d, rule %d", (int)i, (int)j, fl[k] & 1, (int)want);
+      broken += fl[k] & 1;
+      /* symmetric: the reverse entry carries the same flag */
+      ej_off kr = nb->off[j];
+      while (kr < nb->off[j + 1] && nb->idx[kr] != i) ++kr;
+      ck_assert(kr < nb->off[j + 1]);
+      ck_assert_int_eq(fl[kr] & 1, fl[k] & 1);
+    }
+  if (cut > 0) ck_assert_msg(cut_only >= 20, "only %lld row entries cut", (long long)cut_only);
+  trun_close(&r);
+  return broken;
+}
+
+START_TEST(test_failure_cut)
+{
+  const int64_t own = cut_case(0), half = cut_case(0.5);
+  /* the failed particle's own bonds (both row entries), then the cut on top: the bonds through its
+   * lattice neighbours' pairs across it, e.g. (i-1, i+1), and the diagonals passing by */
+  ck_assert_int_gt(own, 40);
+  ck_assert_int_gt(half, own + 20);
+  printf("failure cut: %lld broken row entries without the cut, %lld with cut_distance 0.5\n", (long long)own,
+         (long long)half);
+}
+END_TEST
+
 /* One row of particles in 2D: every K is singular (collinear bonds), so every particle uses
  * the bond-based spring fallback; a uniform stretch pulls only the ends, and the power
  * balance still closes. */
@@ -735,17 +805,18 @@ static void det_run(int threads, const char *dir, ej_real **out, ej_idx *n_out)
  * neighbours must break their bonds to it although their sweeps are being skipped). With the skip on and off, after
  * 60 steps: positions, velocities, stress, damage, failed flags and every bond flag bitwise equal;
  * the skip skipped sweeps and the pull broke bonds. */
-static void skip_run(bool skip, ej_real **out, uint8_t **flags_out, ej_idx *n_out, ej_off *nb_out, int64_t *skipped)
+static void skip_run(bool skip, double cut, ej_real **out, uint8_t **flags_out, ej_idx *n_out, ej_off *nb_out,
+                     int64_t *skipped)
 {
   trun r;
   char yaml[1024];
   snprintf(yaml, sizeof yaml,
            "ejecta: 1\ndimension: 3\ntime: {end: 1, cfl: 0.5, max_steps: 30}\n" MAT
            "sets: {b: {method: tlpd, material: m, shape: {box: {min: [0, 0, 0], max: [0.4, 0.08, 0.06]}}, "
-           "spacing: 0.01, failure: {critical_stretch: 0.002}, break_skip: %s, "
+           "spacing: 0.01, failure: {critical_stretch: 0.002, cut_distance: %g}, break_skip: %s, "
            "initial: [{region: {box: {min: [-1, -1, -1], max: [0.03, 1, 1]}}, velocity: [-2, 0, 0]}]}}\n"
            "boundaries: [{symmetry: {point: [0, 0, 0], normal: [0, 1, 0]}}]\n",
-           skip ? "true" : "false");
+           cut, skip ? "true" : "false");
   trun_open(&r, yaml);
   ej_set *s = r.sim->sets[0];
   const ej_idx n = ej_set_count(s);
@@ -797,25 +868,35 @@ static void skip_run(bool skip, ej_real **out, uint8_t **flags_out, ej_idx *n_ou
 
 START_TEST(test_break_skip)
 {
-  ej_real *a, *b;
-  uint8_t *fa, *fb;
-  ej_idx na, nb;
-  ej_off ba, bb;
-  int64_t sa, sb;
-  skip_run(true, &a, &fa, &na, &ba, &sa);
-  skip_run(false, &b, &fb, &nb, &bb, &sb);
-  ck_assert_int_eq(na, nb);
-  ck_assert_int_eq(ba, bb);
-  ck_assert_msg(memcmp(a, b, (size_t)na * 14 * sizeof *a) == 0, "fields differ with and without break_skip");
-  ck_assert_msg(memcmp(fa, fb, (size_t)ba) == 0, "bond flags differ with and without break_skip");
-  int64_t broken = 0;
-  for (ej_off k = 0; k < ba; ++k) broken += fa[k] & 1;
-  /* the pull broke bonds beyond those of the two failed particles (~70 and ~30 each way) */
-  ck_assert_msg(broken > 400, "only %lld broken bonds: the test would not exercise breaking", (long long)broken);
-  ck_assert_int_eq(sb, -1); /* off: no counter */
-  ck_assert_msg(sa > (int64_t)na * 10, "%lld sweeps skipped of %lld row-steps", (long long)sa, (long long)na * 60);
-  ck_assert_msg(sa < (int64_t)na * 60, "every sweep skipped: the pull's rows must sweep");
-  free(a), free(b), free(fa), free(fb);
+  int64_t broken_by_cut[2];
+  for (int c = 0; c < 2; ++c) { /* without and with failure.cut_distance (its rows must not be skipped) */
+    const double cut = c ? 0.5 : 0;
+    ej_real *a, *b;
+    uint8_t *fa, *fb;
+    ej_idx na, nb;
+    ej_off ba, bb;
+    int64_t sa, sb;
+    skip_run(true, cut, &a, &fa, &na, &ba, &sa);
+    skip_run(false, cut, &b, &fb, &nb, &bb, &sb);
+    ck_assert_int_eq(na, nb);
+    ck_assert_int_eq(ba, bb);
+    ck_assert_msg(memcmp(a, b, (size_t)na * 14 * sizeof *a) == 0, "fields differ with and without break_skip (cut %g)", cut);
+    ck_assert_msg(memcmp(fa, fb, (size_t)ba) == 0, "bond flags differ with and without break_skip (cut %g)", cut);
+    int64_t broken = 0;
+    for (ej_off k = 0; k < ba; ++k) broken += fa[k] & 1;
+    broken_by_cut[c] = broken;
+    /* the pull broke bonds beyond those of the two failed particles (~70 and ~30 each way) */
+    ck_assert_msg(broken > 400, "only %lld broken bonds: the test would not exercise breaking", (long long)broken);
+    ck_assert_int_eq(sb, -1); /* off: no counter */
+    ck_assert_msg(sa > (int64_t)na * 10, "%lld sweeps skipped of %lld row-steps", (long long)sa, (long long)na * 60);
+    ck_assert_msg(sa < (int64_t)na * 60, "every sweep skipped: the pull's rows must sweep");
+    free(a), free(b), free(fa), free(fb);
+  }
+  /* the cut around the two failed particles (one beside the symmetry plane) breaks more bonds */
+  ck_assert_msg(broken_by_cut[1] > broken_by_cut[0] + 100, "broken row entries %lld without the cut, %lld with",
+                (long long)broken_by_cut[0], (long long)broken_by_cut[1]);
+  printf("break_skip with failure cut: %lld broken row entries without the cut, %lld with cut_distance 0.5\n",
+         (long long)broken_by_cut[0], (long long)broken_by_cut[1]);
 }
 END_TEST
 
@@ -1015,6 +1096,7 @@ int main(void)
   tcase_add_test(tc, test_refine_graded_horizon);
   tcase_add_test(tc, test_bond_breaking);
   tcase_add_test(tc, test_point_failure_detached);
+  tcase_add_test(tc, test_failure_cut);
   tcase_add_test(tc, test_break_skip);
   tcase_add_test(tc, test_spring_fallback);
   tcase_add_test(tc, test_thread_determinism);

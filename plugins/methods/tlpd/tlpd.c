@@ -58,6 +58,7 @@ static const char *const tlpd_inv_names[] = {"abort", "point_failure", NULL};
 
 typedef struct tlpd_failure_cfg {
   ej_real critical_stretch;
+  ej_real cut_distance;
 } tlpd_failure_cfg;
 
 typedef struct tlpd_traction_cfg {
@@ -104,6 +105,10 @@ static const ej_param tlpd_failure_params[] = {
     EJ_PARAM_REAL(tlpd_failure_cfg, critical_stretch, "1", 0, 0, 0, EJ_PF_HAS_MIN,
                   "Critical bond stretch s0 (000 Eqs 14-16): a bond with (|Y| - |X|)/|X| > s0 breaks for good; "
                   "0 disables bond breaking (point failure of the material still breaks all bonds of the point)."),
+    EJ_PARAM_REAL(tlpd_failure_cfg, cut_distance, "1", 0, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Crack-opening cut of seed 002 (Sec. 2.4 (b)), in spacings: besides its own bonds, a failed "
+                  "point breaks every intact bond whose reference segment passes closer to it than cut_distance "
+                  "min(dx_i, dx_j) (both ends within min(delta_i, delta_j) of the point); 002 uses 0.5. 0 = off."),
     {0}};
 
 static const ej_param tlpd_traction_params[] = {
@@ -299,6 +304,9 @@ typedef struct tlpd_state {
   _Atomic double t_refresh;
   /* inversion: point_failure: particles point-failed at det F <= 0 */
   uint8_t *pfail;      /* [n] */
+  /* failure.cut_distance: failed particles in row i (any bond state) when its cut was last tested;
+   * failed never clears, so an unchanged count means an unchanged set (the cut is idempotent) */
+  int32_t *cut_nf;     /* [n] */
   /* contact: a dense cell grid over owned + ghost particles, rebuilt once per force pass
    * (serial, first range in); cells >= 1.35 dx_min, row i searches 1.35 dx_i around it */
   ej_real c_dxmin;     /* smallest dx over owned + ghost particles (grid cells >= 1.35 dx_min) */
@@ -450,7 +458,7 @@ static void tlpd_free_arrays(tlpd_state *s)
   ej_free(s->mixed), ej_free(s->full), ej_free(s->gf_state), ej_free(s->egf);
   ej_free(s->hself), ej_free(s->hsum);
   ej_free(s->jmax), ej_free(s->notok);
-  ej_free(s->pfail), ej_free(s->kc), ej_free(s->cc), ej_free(s->avis), ej_free(s->ncont);
+  ej_free(s->pfail), ej_free(s->cut_nf), ej_free(s->kc), ej_free(s->cc), ej_free(s->avis), ej_free(s->ncont);
   ej_free(s->c_cellof), ej_free(s->c_order), ej_free(s->c_start);
   ej_free(s->bk_cell), ej_free(s->bk_fseen), ej_free(s->bk_budget), ej_free(s->bk_slack), ej_free(s->bk_fsum);
   ej_free(s->bk_gen), ej_free(s->bk_cf), ej_free((void *)s->bk_dcell), ej_free((void *)s->bk_fcell);
@@ -1089,6 +1097,7 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->c_eos = ej_calloc(nn, sizeof *s->c_eos);
   }
   s->pfail = ej_calloc(nn, 1);
+  if (s->cfg.failure.cut_distance > 0) s->cut_nf = ej_calloc(nn, sizeof *s->cut_nf);
   bool c_ok = true;
   if (s->cfg.contact != TLPD_CONTACT_OFF) {
     const ej_idx nall = ej_set_count_all(set);
@@ -1109,7 +1118,8 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
   }
   if (!s->wa || !s->wb || !s->Kinv || !s->d6 || !s->wp || !s->area || !s->row_ready || !s->n_fallback || !s->row_intact || !s->aint || !s->vpred || !s->vp_ok || !s->dxp || !s->nbroken ||
       !s->m1 || !s->mixed || !s->full || !s->gf_state || !s->egf || !s->hself || !s->hsum ||
-      !s->jmax || !s->notok || (s->eos && (!s->p_eos || !s->c_eos)) || !s->pfail || !c_ok) {
+      !s->jmax || !s->notok || (s->eos && (!s->p_eos || !s->c_eos)) || !s->pfail || !c_ok ||
+      (s->cfg.failure.cut_distance > 0 && !s->cut_nf)) {
     tlpd_free_arrays(s);
     s->wa = s->wb = NULL;
     s->Kinv = s->d6 = s->wp = s->area = s->p_eos = s->c_eos = NULL;
@@ -1123,6 +1133,7 @@ static ej_err tlpd_alloc(tlpd_state *s, ej_set *set, const ej_nbr *nbr)
     s->jmax = NULL;
     s->notok = NULL;
     s->pfail = NULL;
+    s->cut_nf = NULL;
     s->kc = s->cc = s->avis = NULL;
     s->ncont = NULL;
     s->c_cellof = s->c_start = NULL;
@@ -2106,6 +2117,82 @@ TLPD_ALWAYS_INLINE int tlpd_break_row(const tlpd_state *s, const ej_real *restri
   return changed;
 }
 
+/* The crack-opening cut of seed 002 Sec. 2.4 (b) (failure.cut_distance; digest 002 §4: "all bonds
+ * whose minimum distance to the failed point is < half the element size", reference configuration as
+ * the digest's [REC]). Row i breaks its intact bond i-k when a failed particle p (p != i, k) lies
+ * within R = min(delta_i, delta_k) of both ends and closer than r = cut_distance min(dx_i, dx_k) to
+ * the segment X_i X_k. Every such p is in both rows (each row holds every particle within its own
+ * horizon >= R), and every quantity below is symmetric in the two ends to the bit (the distance to
+ * the segment from the cross product |(p - a) x (p - b)|^2 / |b - a|^2, whose terms only change sign
+ * when a and b swap; the foot test as two dot products that swap), so rows i and k take the same
+ * decision: the flags stay symmetric. Against 002's rule this leaves out a p farther than R from one
+ * end, which is then within r of the other end (a foot within r^2/(2|X_ik|) of it): no such pair
+ * exists on a lattice of spacing >= 2r. The test runs only when the number of failed particles in
+ * the row changed since the last test (failed never clears); returns nonzero iff a flag changed.
+ * *lag is set when a ghost of the row is failed in its source but not yet in its own copy (the copy
+ * is refreshed with the next pass), so that the caller looks at the row again. */
+static int tlpd_cut_row(tlpd_state *s, const ej_real *restrict x0, const ej_real *restrict vol0,
+                        const ej_real *restrict hz, const int32_t *restrict failed, const int32_t *restrict id,
+                        uint8_t *restrict fl, const ej_idx i, bool *lag)
+{
+  enum { CAP = 256 };
+  ej_idx fp[CAP];
+  const ej_off b = s->off[i], e = s->off[i + 1];
+  int32_t nf = 0;
+  for (ej_off k = b; k < e; ++k) {
+    const ej_idx j = s->idx[k];
+    nf += failed[j] != 0;
+    if (lag && id && j >= s->n && !failed[j] && id[j] >= 0 && id[j] < s->n && s->bk_src[id[j]] >= 0 &&
+        failed[s->bk_src[id[j]]])
+      *lag = true;
+  }
+  if (nf == s->cut_nf[i]) return 0;
+  s->cut_nf[i] = nf;
+  const ej_real dxi = tlpd_dx(s, vol0[i]), di = hz ? hz[i] : tlpd_delta(s, dxi);
+  const ej_real *a = x0 + 3 * i;
+  int changed = 0;
+  for (ej_off c0 = b; c0 < e; c0 += CAP) { /* the failed members in chunks of CAP */
+    int m = 0;
+    for (ej_off k = c0; k < e && k < c0 + CAP; ++k)
+      if (failed[s->idx[k]]) fp[m++] = s->idx[k];
+    if (m == 0) continue;
+    for (ej_off k = b; k < e; ++k) {
+      if (fl[k] & TLPD_BROKEN) continue;
+      const ej_idx j = s->idx[k];
+      const ej_real dxj = tlpd_dx(s, vol0[j]), dj = hz ? hz[j] : tlpd_delta(s, dxj);
+      const ej_real R = di < dj ? di : dj, R2 = R * R * (1 - 1e-9);
+      const ej_real rc = s->cfg.failure.cut_distance * (dxi < dxj ? dxi : dxj), rc2 = rc * rc;
+      const ej_real *bb = x0 + 3 * j;
+      const ej_real ab0 = bb[0] - a[0], ab1 = bb[1] - a[1], ab2 = bb[2] - a[2];
+      const ej_real lab2 = ab0 * ab0 + ab1 * ab1 + ab2 * ab2;
+      for (int q = 0; q < m; ++q) {
+        const ej_idx p = fp[q];
+        if (p == j) continue;
+        const ej_real *xp = x0 + 3 * p;
+        const ej_real u0 = xp[0] - a[0], u1 = xp[1] - a[1], u2 = xp[2] - a[2];  /* p - a */
+        const ej_real w0 = xp[0] - bb[0], w1 = xp[1] - bb[1], w2 = xp[2] - bb[2]; /* p - b */
+        const ej_real lu2 = u0 * u0 + u1 * u1 + u2 * u2, lw2 = w0 * w0 + w1 * w1 + w2 * w2;
+        if (!(lu2 < R2) || !(lw2 < R2)) continue;
+        /* foot inside the segment: (p - a).(b - a) > 0 and (p - b).(a - b) > 0, i.e. -(w.ab) > 0 */
+        const ej_real da = u0 * ab0 + u1 * ab1 + u2 * ab2, db = w0 * ab0 + w1 * ab1 + w2 * ab2;
+        bool cut;
+        if (da > 0 && db < 0) {
+          const ej_real c0x = u1 * w2 - u2 * w1, c1x = u2 * w0 - u0 * w2, c2x = u0 * w1 - u1 * w0;
+          cut = c0x * c0x + c1x * c1x + c2x * c2x < rc2 * lab2;
+        } else {
+          cut = (lu2 < lw2 ? lu2 : lw2) < rc2;
+        }
+        if (cut) {
+          fl[k] |= TLPD_BROKEN;
+          changed = 1;
+          break;
+        }
+      }
+    }
+  }
+  return changed;
+}
+
 /* Bond-break skip (tlpd_state.bk_*): cell c's grid coordinates. */
 static inline void tlpd_cell_coords(const tlpd_state *s, int32_t c, int q[3])
 {
@@ -2253,6 +2340,10 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
    * post_step, every ghost neighbour's source is in its block, check_fail is as at its last sweep,
    * no failed particle ends an intact bond of it, and twice its budget is below its slack */
   const bool skip_on = s->bk_on;
+  const bool cut_on = s->cut_nf != NULL;
+  const ej_real *vol0 = cut_on ? ej_set_field(set, "vol0") : NULL;
+  const ej_real *hz = cut_on ? ej_set_field(set, "pd_horizon") : NULL; /* horizon_grading (NULL: delta = m dx) */
+  EJ_ENSURE(!cut_on || vol0, EJ_ERR_INTERNAL, "set '%s': tlpd vol0 missing", s->name);
   const int32_t *id = skip_on ? ej_set_field_int(set, "id") : NULL;
   const uint32_t gen = skip_on ? atomic_load_explicit(&s->bk_gen_now, memory_order_relaxed) : 0;
   int32_t bc = -1;
@@ -2276,6 +2367,10 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
         if (!skip && first) s->bk_hot[i] = (uint8_t)(s->bk_hot[i] < 255 ? s->bk_hot[i] + 1 : 9);
         else if (skip) s->bk_hot[i] = 0;
       }
+      /* failure.cut_distance: a new failure in the block may cut any bond of the row, also one of a
+       * row whose bond to the failed particle broke earlier (by stretch), which the failed-end
+       * look below would skip while the other end's row cuts: the flags would differ */
+      if (skip && cut_on && check_fail && s->bk_fsum[i] != bfs) skip = false;
       if (skip && check_fail && s->bk_fsum[i] != bfs) {
         /* a particle of the block failed since the row's last sweep: does one end an intact bond
          * (as the sweep reads it: a ghost's own copy of failed)? A ghost whose source failed but
@@ -2304,7 +2399,13 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
                                    : (want ? tlpd_break_row(s, x, x0, lim, failed, false, flags, i, true, &slack)
                                            : tlpd_break_row(s, x, x0, lim, failed, false, flags, i, false, &slack));
     if (skip_on) s->bk_slack[i] = slack;
-    const bool dirty = changed != 0;
+    int cut = 0;
+    if (cut_on && check_fail) {
+      bool lag = false;
+      cut = tlpd_cut_row(s, x0, vol0, hz, failed, id, flags, i, skip_on ? &lag : NULL);
+      if (skip_on && lag) s->bk_fsum[i] = -1; /* look again next step */
+    }
+    const bool dirty = (changed | cut) != 0;
     if (dirty) {
       tlpd_refresh_row(s, set, &nbr, i);
       atomic_store_explicit(&s->t_refresh, ej_set_time(set), memory_order_relaxed);
