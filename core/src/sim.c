@@ -242,8 +242,8 @@ static ej_err ej_for_chunks(ej_sim *sim, ej_set *s, ej_chunk_fn fn, void *ctx)
   ej_error_frame frames[EJ_ERROR_MAX_FRAMES];
   int nframes = 0;
   const double t_prof = sim->profile ? ej_thread_cpu() : 0, w_prof = ej_prof.level > 1 ? ej_wall() : 0;
-  int nb = 1;
 #ifdef _OPENMP
+  int nb = 1;
   if (sim->affinity) {
     nb = omp_get_max_threads();
     nb = nb > EJ_MAX_BLOCKS ? EJ_MAX_BLOCKS : nb;
