@@ -144,6 +144,85 @@ START_TEST(test_dp_limit)
 }
 END_TEST
 
+/* Beyond the tension tip the hyperbola's other branch, (C - M I1)^2 >= (C - M Xi)^2 mirrored about
+ * I1 = C/M, is not admissible (the defect fixed 2026-11-30: a cohesionless cone carried 1.8 MPa of
+ * hydrostatic tension). (1) A cohesionless cone (C = 1 Pa = M Xi, the glass beads of
+ * validation/sphere_drop with psi = 1: M = beta/(3 sqrt 2) for phi = 24 deg, no dilatancy) against
+ * dp_damage (friction_angle 24 deg, cohesion 0, dilation 0) on random strain paths that compress,
+ * stay, and dilate: the stresses agree to the apex offset (cap3's tip I1 = C/M, 1.84 Pa of mean
+ * stress; dp_damage's apex is 0) and the plastic strains to 1e-3 (measured 0.5-2e-6: the same
+ * offset). (2) Table 2's values (C_0 = 4.5 MPa, Xi_0 = 10 MPa, C > M Xi: tip at Xi; hardening
+ * off) pulled hydrostatically: I1 never exceeds the tip. */
+START_TEST(test_tension_tip)
+{
+  for (int drift = 0; drift < 3; ++drift) {
+    const double C = 1.0, beta = 2 * sqrt(6.0) * sin(24 * M_PI / 180) / (3 - sin(24 * M_PI / 180));
+    const double M = beta / (3 * sqrt(2.0)), Xi = C / M, Mg = 1e-6 * M, Cg = Mg * Xi;
+    mpd a, r;
+    mpd_open(&a, ej_plugin_cap3_info(), "cap3");
+    mpd_set(&a, "E", 204.86 * MPa), mpd_set(&a, "nu", 0.3227);
+    mpd_set(&a, "psi", 1.0);
+    mpd_set_bool(&a, "cap", false);
+    mpd_set(&a, "tau", 0);
+    mpd_set(&a, "a_t", 0), mpd_set(&a, "a_c", 0), mpd_set(&a, "a_s", 0);
+    mpd_set(&a, "M", M), mpd_set(&a, "M_g", Mg);
+    mpd_set(&a, "C_max", C), mpd_set(&a, "C_res", C), mpd_set(&a, "C_0", C);
+    mpd_set(&a, "C_maxg", Cg), mpd_set(&a, "C_resg", Cg), mpd_set(&a, "C_0g", Cg);
+    mpd_set(&a, "Xi_max", Xi), mpd_set(&a, "Xi_res", Xi), mpd_set(&a, "Xi_0", Xi);
+    mpd_create(&a);
+    mpd_open(&r, ej_plugin_dp_damage_info(), "dp_damage");
+    mpd_set(&r, "E", 204.86 * MPa), mpd_set(&r, "nu", 0.3227);
+    mpd_set(&r, "friction_angle", 24 * M_PI / 180), mpd_set(&r, "cohesion", 0), mpd_set(&r, "dilation_angle", 0);
+    mpd_set_bool(&r, "damage", false);
+    mpd_create(&r);
+    unsigned seed = 777;
+    double maxerr = 0, smax = 0, I1max = -HUGE_VAL;
+    const double dr = (drift - 1) * 3e-6; /* compress, stay, dilate */
+    for (int n = 0; n < 1500; ++n) {
+      ej_real d[6];
+      for (int k = 0; k < 6; ++k) {
+        seed = seed * 1103515245u + 12345u;
+        d[k] = ((seed >> 8) / 16777216.0 - 0.5) * 4e-5 + (k < 3 ? dr : 0);
+      }
+      ck_assert_int_eq(mpd_step(&a, d, 1.0), EJ_OK);
+      ck_assert_int_eq(mpd_step(&r, d, 1.0), EJ_OK);
+      for (int k = 0; k < 6; ++k) {
+        maxerr = fmax(maxerr, fabs(a.stress[k] - r.stress[k]));
+        smax = fmax(smax, fabs(r.stress[k]));
+      }
+      I1max = fmax(I1max, a.stress[0] + a.stress[1] + a.stress[2]);
+    }
+    printf("cap3 cohesionless cone vs dp_damage, strain drift %+g per step: max diff %.4g Pa of %.4g Pa, "
+           "max I1 %.4g Pa (tip %.4g), eps_p rel. diff %.2e\n",
+           dr, maxerr, smax, I1max, Xi, fabs(mpd_hist(&a, "eps_p") / mpd_hist(&r, "eps_p") - 1));
+    ck_assert(mpd_hist(&r, "eps_p") > 1e-4);
+    ck_assert(mpd_hist(&a, "cap_fallbacks") == 0);
+    ck_assert_msg(maxerr < 1.01 * Xi / 3, "cap3 vs DP: %g Pa", maxerr);
+    ck_assert(I1max <= Xi * (1 + 1e-9));
+    ck_assert_double_eq_tol(mpd_hist(&a, "eps_p"), mpd_hist(&r, "eps_p"), 1e-3 * mpd_hist(&r, "eps_p"));
+    mpd_close(&a);
+    mpd_close(&r);
+  }
+  /* (2) Table 2, no cap: hydrostatic pull in 50 steps of 1e-4 (K = 4.3 GPa: 0.43 MPa of I1 / 3 per step) */
+  mpd m;
+  c3_open(&m, false);
+  mpd_set_bool(&m, "cap", false);
+  mpd_set(&m, "tau", 0);
+  mpd_set(&m, "a_t", 0), mpd_set(&m, "a_c", 0), mpd_set(&m, "a_s", 0); /* no hardening: the tip stays Xi_0 */
+  mpd_create(&m);
+  double I1max = -HUGE_VAL;
+  for (int n = 0; n < 50; ++n) {
+    const ej_real d[6] = {1e-4, 1e-4, 1e-4, 0, 0, 0};
+    ck_assert_int_eq(mpd_step(&m, d, 1.0), EJ_OK);
+    I1max = fmax(I1max, m.stress[0] + m.stress[1] + m.stress[2]);
+  }
+  printf("cap3 Table 2 hydrostatic pull: max I1 %.6g MPa (Xi_0 10 MPa)\n", I1max / MPa);
+  ck_assert(I1max <= 10 * MPa * (1 + 1e-9));
+  ck_assert(I1max > 9 * MPa);
+  mpd_close(&m);
+}
+END_TEST
+
 /* Eq 61: at the same I1 the failure sqrt(J2) in triaxial extension is psi times that in triaxial
  * compression (perfectly plastic hyperbola, no cap, Table 2 psi = 0.8). */
 START_TEST(test_lode)
@@ -328,6 +407,7 @@ int main(void)
   tcase_set_timeout(tc, 60);
   tcase_add_test(tc, test_eig);
   tcase_add_test(tc, test_dp_limit);
+  tcase_add_test(tc, test_tension_tip);
   tcase_add_test(tc, test_lode);
   tcase_add_test(tc, test_duvaut_lions);
   tcase_add_test(tc, test_v1_uniaxial);

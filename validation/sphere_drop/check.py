@@ -55,9 +55,32 @@ def surface(s, depth):
     return 0.0 if abs(zs) < 1e-9 * s else zs
 
 
+def beads_material(phi, damage, model="dp"):
+    """The beads: `dp` = dp_damage (cohesionless Drucker-Prager, 003 Table 10, the cone through
+    triaxial compression, 003 Eq 51); `cap3_mc` = cap3 with the cap and the hardening off, the same
+    cone in triaxial compression (M = beta / (3 sqrt 2), cap3 README) and the Gudehus Lode function
+    with the Mohr-Coulomb ratio of the same phi, psi = (3 - sin phi) / (3 + sin phi), raised to
+    7/9 where it is below (the smallest psi for which the Gudehus surface is convex)."""
+    if model == "dp":
+        return (f"{{model: dp_damage, rho0: 1500, E: 204.86 MPa, nu: 0.3227, friction_angle: {phi} deg,\n"
+                f"          dilation_angle: 0 deg, cohesion: 0, damage: {str(damage).lower()}}}")
+    assert model == "cap3_mc" and not damage
+    sp = math.sin(math.radians(phi))
+    beta = 2 * math.sqrt(6) * sp / (3 - sp)
+    M = beta / (3 * math.sqrt(2))
+    psi = max((3 - sp) / (3 + sp), 7.0 / 9.0)
+    C = 1.0  # Pa: cap3 needs C > 0; the cone's apex at I1 = C/M = 5.5 Pa (dp_damage: cohesion 0)
+    Mg = 1e-6 * M  # dilation ~ 0, as dp_damage's dilation_angle 0 (cap3 needs C_g = M_g Xi > 0)
+    Xi, Cg = C / M, Mg * C / M
+    return (f"{{model: cap3, rho0: 1500, E: 204.86 MPa, nu: 0.3227, psi: {psi:.6f}, cap: false, tau: 0,\n"
+            f"          a_t: 0, a_c: 0, a_s: 0, M: {M:.8f}, M_g: {Mg:.6e},\n"
+            f"          C_max: {C}, C_res: {C}, C_0: {C}, Xi_max: {Xi:.8f}, Xi_res: {Xi:.8f}, Xi_0: {Xi:.8f},\n"
+            f"          C_maxg: {Cg:.8e}, C_resg: {Cg:.8e}, C_0g: {Cg:.8e}}}")
+
+
 def scene(h, s, t_end, phi, damage, width, depth, ball_mod, sb, integration="msnni", msnni_stress="material",
           msnni_w=0.5, stabilization=None, extra_bed="", bed=None, mu=0.3, every="0.5 ms", tag="sphere_drop",
-          header=None):
+          header=None, beads="dp"):
     """The scene; bed (the bed set's method lines) and the rest let validation/sphere_drop_methods
     put another method under the same ball, material, contact and walls."""
     v = math.sqrt(2 * G * h)
@@ -75,8 +98,7 @@ time: {{end: {t_end}, cfl: 0.3}}
 output: {{file: out/{tag}.h5, every: {every}, fields: [v]}}
 gravity: [0, 0, -9.80665]
 materials:
-  beads: {{model: dp_damage, rho0: 1500, E: 204.86 MPa, nu: 0.3227, friction_angle: {phi} deg,
-          dilation_angle: 0 deg, cohesion: 0, damage: {str(damage).lower()}}}
+  beads: {beads_material(phi, damage, beads)}
   steel: {{rho0: 7800}}
 sets:
   bed:
@@ -120,6 +142,9 @@ def main():
     ap.add_argument("--t-end", type=float, default=0.06)  # 6 mm bed, stabilization 0: at rest by ~50 ms
     ap.add_argument("--phi", type=float, default=24.0)
     ap.add_argument("--damage", action="store_true")
+    ap.add_argument("--beads", default="dp", choices=["dp", "cap3_mc"],
+                    help="bed material: dp (dp_damage, the compression cone of 003 Eq 51) or cap3_mc (cap3 without "
+                         "cap or hardening, the same cone in compression and the Mohr-Coulomb Lode ratio)")
     ap.add_argument("--width", type=float, default=0.042)
     ap.add_argument("--depth", type=float, default=0.084)
     ap.add_argument("--ball-modulus", default="296 MPa",
@@ -146,6 +171,7 @@ def main():
                 + ("_elastic-stab" if a.integration == "msnni" and a.msnni_stress == "elastic" else "")
                 + (f"_w{a.msnni_w:g}" if a.integration == "msnni" and a.msnni_w != 0.5 else "")
                 + ("_dmg" if a.damage else "")
+                + ("" if a.beads == "dp" else "_" + a.beads)
                 + ("" if not a.stabilization else f"_stab{a.stabilization:g}")
                 + ("" if a.msnni_part is None else f"_{a.msnni_part[:3]}")
                 + a.name_tag)
@@ -153,7 +179,8 @@ def main():
         path, wall = common.run(exe, scene(h, s, a.t_end, a.phi, a.damage, a.width, a.depth, a.ball_modulus,
                                                   a.ball_spacing, a.integration, a.msnni_stress,
                                                   a.msnni_w, a.stabilization,
-                                                  "" if a.msnni_part is None else f"\n    msnni_part: {a.msnni_part}"),
+                                                  "" if a.msnni_part is None else f"\n    msnni_part: {a.msnni_part}",
+                                                  beads=a.beads),
                                 name, a.out,
                                 threads=a.threads, reuse=a.reuse)
         r1 = os.times()

@@ -188,7 +188,11 @@ static void c3_vars_at(const c3_state *s, ej_real gamma_n, ej_real epsv_n, ej_re
 }
 
 /* sqrt(F_c) F_f as a signed, continuous function of I1 (negative outside the admissible I1
- * range, so that f > 0 there). */
+ * range, so that f > 0 there). Beyond the tension tip (I1 > c3_tip_I1) it is negative although
+ * F_f^2 = (C - M I1)^2 - (C - M Xi)^2 turns positive again there (the hyperbola's other branch,
+ * mirrored about I1 = C/M; for the cone C = M Xi there is no negative band at all): taking that
+ * branch as admissible let a point carry any hydrostatic tension (found 2026-11-30 with a
+ * cohesionless cone, C = 1 Pa: 1.8 MPa of tension under a dilating strain path). */
 static ej_real c3_shear(ej_real C, ej_real M, ej_real Xi, ej_real kappa, ej_real X, bool cap, ej_real I1,
                         ej_real *dQ)
 {
@@ -199,9 +203,10 @@ static ej_real c3_shear(ej_real C, ej_real M, ej_real Xi, ej_real kappa, ej_real
     fc = 1 - z * z, dfc = -2 * z / (X - kappa);
   }
   const ej_real Q = fc * ff2, Qp = dfc * ff2 + fc * dff2;
-  const bool neg = fc < 0 || ff2 < 0;
+  const bool neg = fc < 0 || ff2 < 0 || I1 > c3_tip_I1(C, M, Xi);
   const ej_real r = sqrt(fabs(Q));
-  if (dQ) *dQ = Qp / (2 * fmax(r, 1e-300)) * 1.0;
+  /* d/dI1 of sgn sqrt|Q| = sgn sign(Q) Q' / (2 sqrt|Q|) */
+  if (dQ) *dQ = ((neg ? -1 : 1) * (Q < 0 ? -1 : 1)) * Qp / (2 * fmax(r, 1e-300));
   return neg ? -r : r;
 }
 
