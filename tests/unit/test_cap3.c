@@ -95,23 +95,32 @@ START_TEST(test_eig)
 }
 END_TEST
 
+/* cap3 as a cone: no cap, no hardening, rate independent, C = M Xi (the hyperbola degenerates to
+ * sqrt(J2) Gamma = C - M I1), the potential's C_g = M_g Xi. */
+static void c3_cone(mpd *a, double E, double nu, double C, double M, double Mg, double psi)
+{
+  const double Xi = C / M, Cg = Mg * Xi;
+  mpd_open(a, ej_plugin_cap3_info(), "cap3");
+  mpd_set(a, "E", E), mpd_set(a, "nu", nu);
+  mpd_set(a, "psi", psi);
+  mpd_set_bool(a, "cap", false);
+  mpd_set(a, "tau", 0);
+  mpd_set(a, "a_t", 0), mpd_set(a, "a_c", 0), mpd_set(a, "a_s", 0);
+  mpd_set(a, "M", M), mpd_set(a, "M_g", Mg);
+  mpd_set(a, "C_max", C), mpd_set(a, "C_res", C), mpd_set(a, "C_0", C);
+  mpd_set(a, "C_maxg", Cg), mpd_set(a, "C_resg", Cg), mpd_set(a, "C_0g", Cg);
+  mpd_set(a, "Xi_max", Xi), mpd_set(a, "Xi_res", Xi), mpd_set(a, "Xi_0", Xi);
+  mpd_create(a);
+}
+
 /* Cap removed = Drucker-Prager to round-off (the report's claim, 003 §4 "matched up to machine
  * round off error"), associated (M_g = M) and non-associated (M_g = M/2, C_g = M_g Xi). */
 START_TEST(test_dp_limit)
 {
   for (int nonassoc = 0; nonassoc < 2; ++nonassoc) {
-    const double C = 5 * MPa, M = 0.2, Xi = C / M, Mg = nonassoc ? 0.1 : M, Cg = Mg * Xi;
+    const double C = 5 * MPa, M = 0.2, Mg = nonassoc ? 0.1 : M;
     mpd a, r;
-    c3_open(&a, false);
-    mpd_set(&a, "psi", 1.0);
-    mpd_set_bool(&a, "cap", false);
-    mpd_set(&a, "tau", 0);
-    mpd_set(&a, "a_t", 0), mpd_set(&a, "a_c", 0), mpd_set(&a, "a_s", 0);
-    mpd_set(&a, "M", M), mpd_set(&a, "M_g", Mg);
-    mpd_set(&a, "C_max", C), mpd_set(&a, "C_res", C), mpd_set(&a, "C_0", C);
-    mpd_set(&a, "C_maxg", Cg), mpd_set(&a, "C_resg", Cg), mpd_set(&a, "C_0g", Cg);
-    mpd_set(&a, "Xi_max", Xi), mpd_set(&a, "Xi_res", Xi), mpd_set(&a, "Xi_0", Xi);
-    mpd_create(&a);
+    c3_cone(&a, 9000 * MPa, 0.15, C, M, Mg, 1.0);
     mpd_open(&r, ej_plugin_dp_damage_info(), "dp_damage");
     mpd_set(&r, "E", 9000 * MPa), mpd_set(&r, "nu", 0.15);
     mpd_set(&r, "beta", 3 * sqrt(2.0) * M), mpd_set(&r, "A", sqrt(2.0) * C), mpd_set(&r, "b", 3 * sqrt(2.0) * Mg);
@@ -157,19 +166,9 @@ START_TEST(test_tension_tip)
 {
   for (int drift = 0; drift < 3; ++drift) {
     const double C = 1.0, beta = 2 * sqrt(6.0) * sin(24 * M_PI / 180) / (3 - sin(24 * M_PI / 180));
-    const double M = beta / (3 * sqrt(2.0)), Xi = C / M, Mg = 1e-6 * M, Cg = Mg * Xi;
+    const double M = beta / (3 * sqrt(2.0)), Xi = C / M;
     mpd a, r;
-    mpd_open(&a, ej_plugin_cap3_info(), "cap3");
-    mpd_set(&a, "E", 204.86 * MPa), mpd_set(&a, "nu", 0.3227);
-    mpd_set(&a, "psi", 1.0);
-    mpd_set_bool(&a, "cap", false);
-    mpd_set(&a, "tau", 0);
-    mpd_set(&a, "a_t", 0), mpd_set(&a, "a_c", 0), mpd_set(&a, "a_s", 0);
-    mpd_set(&a, "M", M), mpd_set(&a, "M_g", Mg);
-    mpd_set(&a, "C_max", C), mpd_set(&a, "C_res", C), mpd_set(&a, "C_0", C);
-    mpd_set(&a, "C_maxg", Cg), mpd_set(&a, "C_resg", Cg), mpd_set(&a, "C_0g", Cg);
-    mpd_set(&a, "Xi_max", Xi), mpd_set(&a, "Xi_res", Xi), mpd_set(&a, "Xi_0", Xi);
-    mpd_create(&a);
+    c3_cone(&a, 204.86 * MPa, 0.3227, C, M, 1e-6 * M, 1.0);
     mpd_open(&r, ej_plugin_dp_damage_info(), "dp_damage");
     mpd_set(&r, "E", 204.86 * MPa), mpd_set(&r, "nu", 0.3227);
     mpd_set(&r, "friction_angle", 24 * M_PI / 180), mpd_set(&r, "cohesion", 0), mpd_set(&r, "dilation_angle", 0);

@@ -587,6 +587,23 @@ START_TEST(test_bond_breaking)
 }
 END_TEST
 
+/* The particle at (x, y) of a 2-D set, flagged failed (as if the material had set it), then one
+ * force evaluation (pass 0 sees the flag) and post_step, which breaks the bonds. */
+static ej_idx fail_at(trun *r, double x, double y)
+{
+  ej_set *s = r->sim->sets[0];
+  const ej_idx n = ej_set_count(s);
+  const ej_real *x0 = ej_set_field(s, "x0");
+  ej_idx pa = -1;
+  for (ej_idx i = 0; i < n; ++i)
+    if (fabs(x0[3 * i] - x) < 1e-9 && fabs(x0[3 * i + 1] - y) < 1e-9) pa = i;
+  ck_assert(pa >= 0);
+  ej_set_field_int(s, "failed")[pa] = 1;
+  trun_compute(r);
+  ck_assert_int_eq(s->mops->post_step(s->mstate, s, (ej_range){0, n}), EJ_OK);
+  return pa;
+}
+
 /* A failed point loses all its bonds and becomes detached (F = I, P = 0, damage 1, 000
  * section 5), and its neighbours lose the bonds to it. */
 START_TEST(test_point_failure_detached)
@@ -597,14 +614,7 @@ START_TEST(test_point_failure_detached)
   ej_set *s = r.sim->sets[0];
   const ej_idx n = ej_set_count(s);
   const ej_nbr *nb = &s->list->pub;
-  const ej_real *x0 = ej_set_field(s, "x0");
-  ej_idx pa = -1;
-  for (ej_idx i = 0; i < n; ++i)
-    if (fabs(x0[3 * i] - 0.025) < 1e-9 && fabs(x0[3 * i + 1] - 0.025) < 1e-9) pa = i;
-  ck_assert(pa >= 0);
-  ej_set_field_int(s, "failed")[pa] = 1;
-  trun_compute(&r); /* pass 0 sees the flag (as if the material had set it) */
-  ck_assert_int_eq(s->mops->post_step(s->mstate, s, (ej_range){0, n}), EJ_OK);
+  const ej_idx pa = fail_at(&r, 0.025, 0.025);
   const int32_t *st = ej_set_field_int(s, "pd_status");
   ck_assert_int_eq(st[pa], 2);
   ck_assert(ej_set_field(s, "damage")[pa] == 1);
@@ -642,13 +652,7 @@ static int64_t cut_case(double cut)
   const ej_idx n = ej_set_count(s);
   const ej_nbr *nb = &s->list->pub;
   const ej_real *x0 = ej_set_field(s, "x0");
-  ej_idx pa = -1;
-  for (ej_idx i = 0; i < n; ++i)
-    if (fabs(x0[3 * i] - 0.055) < 1e-9 && fabs(x0[3 * i + 1] - 0.055) < 1e-9) pa = i;
-  ck_assert(pa >= 0);
-  ej_set_field_int(s, "failed")[pa] = 1;
-  trun_compute(&r);
-  ck_assert_int_eq(s->mops->post_step(s->mstate, s, (ej_range){0, n}), EJ_OK);
+  const ej_idx pa = fail_at(&r, 0.055, 0.055);
   const uint8_t *fl = ej_set_bond_flags(s);
   const double dx = 0.01, R = 3 * dx, rc = cut * dx;
   int64_t broken = 0, cut_only = 0;
