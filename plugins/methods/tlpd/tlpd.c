@@ -2128,24 +2128,16 @@ TLPD_ALWAYS_INLINE int tlpd_break_row(const tlpd_state *s, const ej_real *restri
  * decision: the flags stay symmetric. Against 002's rule this leaves out a p farther than R from one
  * end, which is then within r of the other end (a foot within r^2/(2|X_ik|) of it): no such pair
  * exists on a lattice of spacing >= 2r. The test runs only when the number of failed particles in
- * the row changed since the last test (failed never clears); returns nonzero iff a flag changed.
- * *lag is set when a ghost of the row is failed in its source but not yet in its own copy (the copy
- * is refreshed with the next pass), so that the caller looks at the row again. */
+ * the row changed since the last test (failed never clears); returns nonzero iff a flag changed. */
 static int tlpd_cut_row(tlpd_state *s, const ej_real *restrict x0, const ej_real *restrict vol0,
-                        const ej_real *restrict hz, const int32_t *restrict failed, const int32_t *restrict id,
-                        uint8_t *restrict fl, const ej_idx i, bool *lag)
+                        const ej_real *restrict hz, const int32_t *restrict failed, uint8_t *restrict fl,
+                        const ej_idx i)
 {
   enum { CAP = 256 };
   ej_idx fp[CAP];
   const ej_off b = s->off[i], e = s->off[i + 1];
   int32_t nf = 0;
-  for (ej_off k = b; k < e; ++k) {
-    const ej_idx j = s->idx[k];
-    nf += failed[j] != 0;
-    if (lag && id && j >= s->n && !failed[j] && id[j] >= 0 && id[j] < s->n && s->bk_src[id[j]] >= 0 &&
-        failed[s->bk_src[id[j]]])
-      *lag = true;
-  }
+  for (ej_off k = b; k < e; ++k) nf += failed[s->idx[k]] != 0;
   if (nf == s->cut_nf[i]) return 0;
   s->cut_nf[i] = nf;
   const ej_real dxi = tlpd_dx(s, vol0[i]), di = hz ? hz[i] : tlpd_delta(s, dxi);
@@ -2191,6 +2183,20 @@ static int tlpd_cut_row(tlpd_state *s, const ej_real *restrict x0, const ej_real
     }
   }
   return changed;
+}
+
+/* Bond-break skip: whether a ghost of row i is failed in its source but not yet in its own copy
+ * (post_step runs before the next ghost refresh), so that the row, which just swept with the old
+ * copy, looks again next step instead of taking the block's failure count as seen. */
+static bool tlpd_ghost_lag(const tlpd_state *s, const int32_t *restrict failed, const int32_t *restrict id, ej_idx i)
+{
+  for (ej_off k = s->off[i]; k < s->off[i + 1]; ++k) {
+    const ej_idx j = s->idx[k];
+    if (j < s->n || failed[j] || !id || id[j] < 0 || id[j] >= s->n) continue;
+    const ej_idx src = s->bk_src[id[j]];
+    if (src >= 0 && failed[src]) return true;
+  }
+  return false;
 }
 
 /* Bond-break skip (tlpd_state.bk_*): cell c's grid coordinates. */
@@ -2399,12 +2405,9 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
                                    : (want ? tlpd_break_row(s, x, x0, lim, failed, false, flags, i, true, &slack)
                                            : tlpd_break_row(s, x, x0, lim, failed, false, flags, i, false, &slack));
     if (skip_on) s->bk_slack[i] = slack;
-    int cut = 0;
-    if (cut_on && check_fail) {
-      bool lag = false;
-      cut = tlpd_cut_row(s, x0, vol0, hz, failed, id, flags, i, skip_on ? &lag : NULL);
-      if (skip_on && lag) s->bk_fsum[i] = -1; /* look again next step */
-    }
+    const int cut = cut_on && check_fail ? tlpd_cut_row(s, x0, vol0, hz, failed, flags, i) : 0;
+    if (skip_on && check_fail && s->jmax[i] >= s->n && tlpd_ghost_lag(s, failed, id, i))
+      s->bk_fsum[i] = -1; /* look again next step, with the refreshed copy */
     const bool dirty = (changed | cut) != 0;
     if (dirty) {
       tlpd_refresh_row(s, set, &nbr, i);
