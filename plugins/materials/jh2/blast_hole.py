@@ -54,7 +54,8 @@ def run(build, outdir, cut, reuse):
     with h5py.File(out, "r") as f:
         g = f["checkpoint/rock"]
         x, x0, dmg = g["x"][:], g["x0"][:], g["damage"][:]
-    return dict(x=x, x0=x0, dmg=dmg, counts=counts, steps=steps, bal=bal)
+    rad = 1e3 * np.hypot(x0[:, 0], x0[:, 1])  # initial radius [mm]
+    return dict(x=x, rad=rad, dmg=dmg, counts=counts, steps=steps, bal=bal)
 
 
 def main():
@@ -71,13 +72,11 @@ def main():
     for lo, hi in BANDS:
         row = "%-12s" % ("%d-%d" % (lo, hi))
         for _, r in runs:
-            rad = 1e3 * np.hypot(r["x0"][:, 0], r["x0"][:, 1])
-            sel = (rad >= lo) & (rad < hi)
+            sel = (r["rad"] >= lo) & (r["rad"] < hi)
             row += "%12.3f" % r["dmg"][sel].mean()
         print(row)
     for c, r in runs:
-        rad = 1e3 * np.hypot(r["x0"][:, 0], r["x0"][:, 1])
-        full = rad[r["dmg"] >= 1]
+        rad = r["rad"]
         print("cut %g: %d steps, balance %.2e, broken bonds %d, detached %d, spring fallback %d particle-steps, "
               "damage >= 0.5 on %d of %d particles, all failed within %.1f mm" %
               (c, r["steps"], r["bal"], r["counts"].get("broken bonds", -1), r["counts"].get("detached particles", -1),

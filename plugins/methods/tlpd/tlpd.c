@@ -2357,6 +2357,7 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
   ej_real bdm = 0;
   int64_t bfs = 0;
   for (ej_idx i = r.begin; i < r.end; ++i) {
+    bool newfail = false; /* the row's block counted a failure since its last sweep */
     if (skip_on) {
       const int32_t c = s->bk_cell[i];
       const int m = s->bk_m[i];
@@ -2373,17 +2374,16 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
         if (!skip && first) s->bk_hot[i] = (uint8_t)(s->bk_hot[i] < 255 ? s->bk_hot[i] + 1 : 9);
         else if (skip) s->bk_hot[i] = 0;
       }
-      /* failure.cut_distance: a new failure in the block may cut any bond of the row, also one of a
-       * row whose bond to the failed particle broke earlier (by stretch), which the failed-end
-       * look below would skip while the other end's row cuts: the flags would differ */
-      if (skip && cut_on && check_fail && s->bk_fsum[i] != bfs) skip = false;
-      if (skip && check_fail && s->bk_fsum[i] != bfs) {
+      newfail = s->bk_fsum[i] != bfs;
+      if (skip && check_fail && newfail) {
         /* a particle of the block failed since the row's last sweep: does one end an intact bond
          * (as the sweep reads it: a ghost's own copy of failed)? A ghost whose source failed but
          * whose copy does not say so yet (refreshed at a later pass) keeps the count unsettled, so
-         * that the row looks again next step, as the sweep would. */
+         * that the row looks again next step, as the sweep would. With failure.cut_distance the
+         * row sweeps: the new failure may cut any bond of it, also where its own bond to the
+         * failed particle broke earlier (by stretch) while the other end's row cuts. */
         bool settled = true;
-        skip = !failed[i];
+        skip = !cut_on && !failed[i];
         for (ej_off k = s->off[i]; skip && k < s->off[i + 1]; ++k) {
           if (flags[k] & TLPD_BROKEN) continue;
           const ej_idx j = s->idx[k];
@@ -2406,7 +2406,8 @@ static ej_err tlpd_post_step(void *state, ej_set *set, ej_range r)
                                            : tlpd_break_row(s, x, x0, lim, failed, false, flags, i, false, &slack));
     if (skip_on) s->bk_slack[i] = slack;
     const int cut = cut_on && check_fail ? tlpd_cut_row(s, x0, vol0, hz, failed, flags, i) : 0;
-    if (skip_on && check_fail && s->jmax[i] >= s->n && tlpd_ghost_lag(s, failed, id, i))
+    /* a ghost's source failed in this step only if the block's count moved */
+    if (newfail && check_fail && s->jmax[i] >= s->n && tlpd_ghost_lag(s, failed, id, i))
       s->bk_fsum[i] = -1; /* look again next step, with the refreshed copy */
     const bool dirty = (changed | cut) != 0;
     if (dirty) {
