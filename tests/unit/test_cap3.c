@@ -5,6 +5,9 @@
  *    psi = 1, C - M Xi = 0 (the hyperbola of Eq 57 becomes the cone sqrt(J2) = C - M I1), against
  *    dp_damage with damage off (beta = 3 sqrt2 M, A = sqrt2 C, b = 3 sqrt2 M_g), associated and not;
  *  - Lode dependence: sqrt(J2) at failure in triaxial extension = psi x compression (Eq 61);
+ *  - the analytic first and second derivatives behind the return's Newton Jacobian (Lode function
+ *    gradient and Hessian, the signed shear function's slope and curvature) against central
+ *    differences;
  *  - Duvaut-Lions relaxation at frozen strain: overstress x 1/(1 + dt/tau) per step;
  *  - V1-V4 of 003 §5.1 (Tables 2 and 4, the M_g = 0.05 and q1 = 0.001 variants) as homogeneous
  *    single-cube paths. The report gives no curves (figures missing), so these check what is
@@ -13,6 +16,7 @@
  *    returned stress and history, and the crush curve Eqs 59, 69, 71 from (kappa, eps_v_p).
  * The cube size is in the missing figures: a 1 mm cube is assumed (d = 0.02 mm -> 2 %). */
 #include "material_point_driver.h"
+#include "../../plugins/materials/cap3/cap3_math.h"
 
 const ej_plugin_info *ej_plugin_cap3_info(void);
 const ej_plugin_info *ej_plugin_dp_damage_info(void);
@@ -248,6 +252,73 @@ START_TEST(test_lode)
 }
 END_TEST
 
+/* The derivatives c3_newton's analytic Jacobian is built from (cap3_math.h) against central
+ * differences of the function one order down: the Lode function's gradient and Hessian at general
+ * and near-triaxial points for psi 0.8, 7/9 and 1, and the signed shear function's slope and
+ * curvature on the hyperbola (C > M Xi and C < M Xi), the cone, inside the cap and beyond the
+ * tension tip. Relative to the largest entry (at least the natural scale); the differences' own
+ * error is ~1e-8. */
+static double c3_fd_rel(double a, double b, double scale) { return fabs(a - b) / fmax(scale, 1e-300); }
+
+START_TEST(test_derivatives)
+{
+  const double psis[3] = {0.8, 7.0 / 9.0, 1.0};
+  const double pts[5][3] = {{-30e6, -12e6, 4e6}, {-5e6, -20e6, -21e6}, {-20e6, -5e6, -5.0001e6},
+                            {-20e6, -20.0002e6, -5e6}, {3e6, -1e6, 0.2e6}};
+  double eg = 0, eh = 0;
+  for (int ip = 0; ip < 3; ++ip)
+    for (int k = 0; k < 5; ++k) {
+      ej_real g[3], H[3][3];
+      c3_lode(psis[ip], pts[k], g, H, 5.5e6);
+      /* scales: the gradient is O(1), the Hessian O(1/sqrt J2) (psi = 7/9 is flat in extension:
+       * there the Hessian vanishes and a relative measure would compare round-off) */
+      const double m = (pts[k][0] + pts[k][1] + pts[k][2]) / 3;
+      const double rJ2 = sqrt(0.5 * ((pts[k][0] - m) * (pts[k][0] - m) + (pts[k][1] - m) * (pts[k][1] - m) +
+                                     (pts[k][2] - m) * (pts[k][2] - m)));
+      double gmax = 1, hmax = 1 / (2 * rJ2);
+      for (int A = 0; A < 3; ++A) {
+        gmax = fmax(gmax, fabs(g[A]));
+        for (int B = 0; B < 3; ++B) hmax = fmax(hmax, fabs(H[A][B]));
+      }
+      for (int B = 0; B < 3; ++B) {
+        const double h = 1e-5 * 1e6;
+        ej_real xp[3] = {pts[k][0], pts[k][1], pts[k][2]}, xm[3] = {pts[k][0], pts[k][1], pts[k][2]};
+        xp[B] += h, xm[B] -= h;
+        ej_real gp[3], gm[3];
+        const double fp = c3_lode(psis[ip], xp, gp, NULL, 5.5e6), fm = c3_lode(psis[ip], xm, gm, NULL, 5.5e6);
+        eg = fmax(eg, c3_fd_rel(g[B], (fp - fm) / (2 * h), gmax));
+        for (int A = 0; A < 3; ++A) eh = fmax(eh, c3_fd_rel(H[A][B], (gp[A] - gm[A]) / (2 * h), hmax));
+      }
+    }
+  /* shear: (C, M, Xi, kappa, X, cap) cases and I1 points */
+  const struct {
+    double C, M, Xi, kappa, X;
+    bool cap;
+    double I1[3];
+  } cs[5] = {
+      {4.5e6, 0.2, 10e6, -50e6, -120e6, true, {-80e6, -20e6, 5e6}},   /* Table 2: cap, hyperbola */
+      {2e6, 0.2, 11e6, -50e6, -100e6, true, {-60e6, -10e6, 8e6}},     /* C < M Xi: the other root */
+      {1.0, 0.18, 1.0 / 0.18, 0, 0, false, {-4e4, -10, 5.0}},        /* the cone C = M Xi */
+      {4.5e6, 0.2, 10e6, -50e6, -120e6, false, {12e6, 30e6, 60e6}},  /* beyond the tension tip */
+      {4.5e6, 0.05, 10e6, -50e6, -70e6, true, {-69e6, -55e6, -30e6}}, /* M_g-like slope, steep cap */
+  };
+  double e1 = 0, e2 = 0;
+  for (int c = 0; c < 5; ++c)
+    for (int k = 0; k < 3; ++k) {
+      const double I1 = cs[c].I1[k], h = 1e-6 * fmax(fabs(I1), 1e3);
+      ej_real d1, d2, d1p, d1m;
+      c3_shear(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1, &d1, &d2);
+      const double fp = c3_shear(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1 + h, &d1p, NULL);
+      const double fm = c3_shear(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1 - h, &d1m, NULL);
+      e1 = fmax(e1, c3_fd_rel(d1, (fp - fm) / (2 * h), fabs(d1)));
+      e2 = fmax(e2, c3_fd_rel(d2, (d1p - d1m) / (2 * h), fmax(fabs(d2), 1e-3 * fabs(d1) / fmax(fabs(I1), 1))));
+    }
+  printf("cap3 derivatives vs central differences: Lode gradient %.2e, Hessian %.2e; shear slope %.2e, "
+         "curvature %.2e\n", eg, eh, e1, e2);
+  ck_assert(eg < 1e-6 && eh < 1e-6 && e1 < 1e-6 && e2 < 1e-6);
+}
+END_TEST
+
 /* Duvaut-Lions at frozen strain in the DP limit: overstress decays by 1/(1 + dt/tau) per step. */
 START_TEST(test_duvaut_lions)
 {
@@ -408,6 +479,7 @@ int main(void)
   tcase_add_test(tc, test_dp_limit);
   tcase_add_test(tc, test_tension_tip);
   tcase_add_test(tc, test_lode);
+  tcase_add_test(tc, test_derivatives);
   tcase_add_test(tc, test_duvaut_lions);
   tcase_add_test(tc, test_v1_uniaxial);
   tcase_add_test(tc, test_v2_triaxial);
