@@ -218,7 +218,7 @@ def main():
             ax[0].plot(t * 1000, pen / D, label=f"h = {h * 1000:.0f} mm")
         ax[0].set_xlabel("t [ms]"), ax[0].set_ylabel("depth / d"), ax[0].legend()
         Hd = [(r[0] + r[3]) / D for r in rows]
-        ax[1].plot(Hd, [r[3] / D for r in rows], "o-", label=f"ejecta RKPM bed {s * 1000:g} mm, rigid ball {a.ball_spacing * 1000:.3g} mm")
+        ax[1].plot(Hd, [r[3] / D for r in rows], "o-", label=f"ejecta RKPM bed {s * 1000:g} mm ({'DP cone' if a.beads == 'dp' else 'Mohr-Coulomb, cap3'}), rigid ball {a.ball_spacing * 1000:.3g} mm")
         ax[1].errorbar([6.1, 16.86, 27.7], [1.4, 2.4, 2.85], yerr=0.2, fmt="s", label="Seguin 2008")
         ax[1].plot([6.1, 16.86, 27.7], [0.83, 1.07, 1.38], "x", label="Chi et al. 2017 (Table 12)")
         hh = np.linspace(0.05, 0.55, 30)
@@ -230,6 +230,7 @@ def main():
         tag += f"_w{a.msnni_w:g}" if a.integration == "msnni" and a.msnni_w != 0.5 else ""
         tag += "_dev" if a.integration == "msnni" and a.msnni_part == "deviatoric" else ""
         tag += "" if not a.stabilization else f"_stab{a.stabilization:g}"
+        tag += "" if a.beads == "dp" else "_" + a.beads
         tag += a.name_tag
         fig.savefig(os.path.join(os.path.dirname(os.path.abspath(__file__)), f"sphere_drop{tag}.png"), dpi=110)
         # the first drop height through tools/plot_series.py: the energy budget and the ball's centre z
