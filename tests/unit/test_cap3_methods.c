@@ -1,0 +1,140 @@
+/* cap3 (003 Table 4, rate independent) under each particle method that takes a strength model:
+ * tlpd, sph (strength: true) and rkpm (MSNNI, the sub-box stress through the material). A free,
+ * jittered 8^3 block given a converging velocity field (v = -a (x - centre), a = 200 1/s, plus the
+ * smooth shear field of the rkpm stability case) that crushes its core onto the cap before the
+ * release waves from the free faces arrive, then lets it rebound, 150 steps. Each run must stay finite, keep its
+ * energy budget, do plastic work and move the cap (kappa below kappa_0, compactive eps_v_p); the
+ * radial fallback's count is bounded and reported (see below). The issue asks the 003 models to be usable under TL-PD and SPH too;
+ * the material-point paths of test_cap3 check the model itself. */
+#include <check.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "core_impl.h"
+#include "validation_common.h"
+
+const ej_plugin_info *ej_plugin_tlpd_info(void);
+const ej_plugin_info *ej_plugin_sph_info(void);
+const ej_plugin_info *ej_plugin_rkpm_info(void);
+const ej_plugin_info *ej_plugin_cap3_info(void);
+
+static ej_err cm_open(vscene *c, const char *fmt, ...)
+{
+  const ej_plugin_info *p[] = {ej_plugin_tlpd_info(), ej_plugin_sph_info(), ej_plugin_rkpm_info(),
+                               ej_plugin_cap3_info()};
+  va_list ap;
+  va_start(ap, fmt);
+  ej_err rc = vscene_open(c, "cap3m", p, 4, fmt, ap);
+  va_end(ap);
+  if (rc != EJ_OK) ej_error_report("test");
+  return rc;
+}
+
+static double cm_sum(ej_set *s, const char *field, double *mn)
+{
+  const ej_real *f = ej_set_field(s, field);
+  ck_assert_ptr_nonnull(f);
+  double sum = 0, m = INFINITY;
+  for (ej_idx i = 0; i < ej_set_count(s); ++i) sum += f[i], m = fmin(m, f[i]);
+  if (mn) *mn = m;
+  return sum;
+}
+
+/* The initial velocity, one region per lattice point's cell: v = -a (x - 0.25) + shear(x). */
+static void cm_initial(char *buf, size_t n)
+{
+  const double a = 200, h = 0.0625;
+  size_t o = 0;
+  for (int i = 0; i < 8; ++i)
+    for (int j = 0; j < 8; ++j)
+      for (int k = 0; k < 8; ++k) {
+        const double X = h * (i + 0.5), Y = h * (j + 0.5), Z = h * (k + 0.5);
+        o += (size_t)snprintf(buf + o, o < n ? n - o : 0,
+                              "      - {region: {box: {min: [%g, %g, %g], max: [%g, %g, %g]}}, velocity: [%.12g, "
+                              "%.12g, %.12g]}\n",
+                              h * i, h * j, h * k, h * (i + 1), h * (j + 1), h * (k + 1),
+                              -a * (X - 0.25) + 3 * sin(7 * Y), -a * (Y - 0.25) + 3 * sin(5 * Z),
+                              -a * (Z - 0.25) + 3 * cos(4 * X));
+      }
+  ck_assert(o < n);
+}
+
+static void cm_run(const char *name, const char *method_lines)
+{
+  static char init[1 << 17];
+  cm_initial(init, sizeof init);
+  vscene c;
+  ck_assert_int_eq(cm_open(&c,
+                           "ejecta: 1\ndimension: 3\ntime: {end: 100, cfl: 0.3, max_steps: 150}\n"
+                           "output: {file: out.h5, every: 100, fields: [v]}\n"
+                           "materials:\n  m: {model: cap3, rho0: 1000, E: 9000 MPa, nu: 0.15, R: 2.0, R_g: 2.0, "
+                           "n0_star: 0.1, q1: 1.0e-5, tau: 0}\n"
+                           "sets:\n  block:\n    %s\n    material: m\n"
+                           "    shape: {box: {min: [0, 0, 0], max: [0.5, 0.5, 0.5]}}\n"
+                           "    spacing: 0.0625\n    jitter: 0.3\n    initial:\n%s",
+                           method_lines, init),
+                   EJ_OK);
+  ej_sim *sim = c.r.sim;
+  const double e0 = sim->energy.kinetic + sim->energy.internal;
+  ej_err rc = ej_sim_run(sim);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  ej_set *s = sim->sets[0];
+  const ej_idx n = ej_set_count(s);
+  const ej_real *sig = ej_set_field(s, "stress");
+  for (ej_idx i = 0; i < 6 * n; ++i) ck_assert(isfinite(sig[i]));
+  double kmin, evmin, wp = cm_sum(s, "w_plastic", NULL);
+  cm_sum(s, "cap_kappa", &kmin);
+  cm_sum(s, "eps_v_p", &evmin);
+  const double nfb = cm_sum(s, "cap_fallbacks", NULL);
+  const double bal = fabs(sim->energy.balance) / e0;
+  fprintf(stderr,
+          "cap3 under %s: %lld steps, sum w_plastic %.3g J/kg, min kappa %.2f MPa (kappa0 -50), min eps_v_p "
+          "%.2e, fallbacks %.0f, |balance| %.2e of E0\n",
+          name, (long long)sim->step, wp, kmin / 1e6, evmin, nfb, bal);
+  ck_assert_msg(wp > 0, "no plastic work");
+  ck_assert_msg(kmin < -50e6 * (1 + 1e-6), "the cap did not move: the test would not test it");
+  ck_assert_msg(evmin < 0, "no compaction");
+  /* The radial fallback (counted in cap_fallbacks) takes returns from near-hydrostatic trials
+   * beyond the cap's tip: there the cap meets the I1 axis with a vertical tangent, and Newton
+   * stalls next to it (plugins/materials/cap3/README.md, "Known limitation"). Measured here
+   * 2026-11-30: 220 / 138 / 138 of 76,800 point updates (tlpd / sph / rkpm), 0.18-0.29 %; the
+   * finite-difference Newton before gave 140 (tlpd) and 143 (rkpm). The bound is the limitation's
+   * size, not a pass mark: the fallback's stress is on the surface, not the closest point. */
+  ck_assert_msg(nfb < 0.01 * 150 * n, "cap3 needed its radial fallback %.0f times in %d updates", nfb, 150 * (int)n);
+  ck_assert_msg(bal < 1e-2, "energy balance %g of E0", bal);
+  vscene_free(&c);
+}
+
+START_TEST(test_tlpd) { cm_run("tlpd", "method: tlpd"); }
+END_TEST
+
+START_TEST(test_sph) { cm_run("sph", "method: sph\n    strength: true"); }
+END_TEST
+
+START_TEST(test_rkpm) { cm_run("rkpm", "method: rkpm\n    integration: msnni"); }
+END_TEST
+
+static Suite *suite(void)
+{
+  Suite *s = suite_create("cap3_methods");
+  TCase *tc = tcase_create("methods");
+  tcase_set_timeout(tc, 300);
+  tcase_add_test(tc, test_tlpd);
+  tcase_add_test(tc, test_sph);
+  tcase_add_test(tc, test_rkpm);
+  suite_add_tcase(s, tc);
+  return s;
+}
+
+int main(void)
+{
+  SRunner *sr = srunner_create(suite());
+  srunner_run_all(sr, CK_NORMAL);
+  const int nf = srunner_ntests_failed(sr);
+  srunner_free(sr);
+  return nf == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
+}
