@@ -196,7 +196,7 @@ static ej_real c3_strain_inc(const c3_ctx *c, const ej_real x[3], ej_real *dev, 
 
 /* Residual of Eq 86 with rows 4-5 eliminated, x = (sigma_1..3, dlambda), at the internal
  * variables v, and (J not NULL) its Jacobian at fixed v (the dependence of v on x is added by
- * c3_newton):
+ * c3_jacobian):
  *   R_A = sigma_A - tr_A + dlambda (2G dg_A + lambda sum_B dg_B),  dg_A = dL/dsigma_A - Q_g'(I1)
  *   R_4 = L(sigma) - Q(I1)            (L = Gamma sqrt J2, Q = sqrt(F_c) F_f signed, c3_shear)
  *   dR_A/dsigma_B = delta_AB + dlambda (2G d2L_AB - 3K Q_g''),  dR_A/ddlambda = 2G dg_A + lambda sum dg
