@@ -6,8 +6,8 @@
  *    dp_damage with damage off (beta = 3 sqrt2 M, A = sqrt2 C, b = 3 sqrt2 M_g), associated and not;
  *  - Lode dependence: sqrt(J2) at failure in triaxial extension = psi x compression (Eq 61);
  *  - the analytic first and second derivatives behind the return's Newton Jacobian (Lode function
- *    gradient and Hessian, the signed shear function's slope and curvature) against central
- *    differences;
+ *    gradient and Hessian, the shear function's slope, its signed square's slope and curvature)
+ *    against central differences;
  *  - Duvaut-Lions relaxation at frozen strain: overstress x 1/(1 + dt/tau) per step;
  *  - V1-V4 of 003 §5.1 (Tables 2 and 4, the M_g = 0.05 and q1 = 0.001 variants) as homogeneous
  *    single-cube paths. The report gives no curves (figures missing), so these check what is
@@ -254,8 +254,8 @@ END_TEST
 
 /* The derivatives c3_newton's analytic Jacobian is built from (cap3_math.h) against central
  * differences of the function one order down: the Lode function's gradient and Hessian at general
- * and near-triaxial points for psi 0.8, 7/9 and 1, and the signed shear function's slope and
- * curvature on the hyperbola (C > M Xi and C < M Xi), the cone, inside the cap and beyond the
+ * and near-triaxial points for psi 0.8, 7/9 and 1, the signed shear function's slope and its
+ * signed square's slope and curvature (the flow direction's pieces) on the hyperbola (C > M Xi and C < M Xi), the cone, inside the cap and beyond the
  * tension tip. Relative to the largest entry (at least the natural scale); the differences' own
  * error is ~1e-8. */
 static double c3_fd_rel(double a, double b, double scale) { return fabs(a - b) / fmax(scale, 1e-300); }
@@ -302,20 +302,24 @@ START_TEST(test_derivatives)
       {4.5e6, 0.2, 10e6, -50e6, -120e6, false, {12e6, 30e6, 60e6}},  /* beyond the tension tip */
       {4.5e6, 0.05, 10e6, -50e6, -70e6, true, {-69e6, -55e6, -30e6}}, /* M_g-like slope, steep cap */
   };
-  double e1 = 0, e2 = 0;
+  double e1 = 0, e2 = 0, e3 = 0;
   for (int c = 0; c < 5; ++c)
     for (int k = 0; k < 3; ++k) {
       const double I1 = cs[c].I1[k], h = 1e-6 * fmax(fabs(I1), 1e3);
-      ej_real d1, d2, d1p, d1m;
-      c3_shear(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1, &d1, &d2);
-      const double fp = c3_shear(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1 + h, &d1p, NULL);
-      const double fm = c3_shear(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1 - h, &d1m, NULL);
+      ej_real d1, p1, p2, p1p, p1m;
+      c3_shear(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1, &d1);
+      const double fp = c3_shear(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1 + h, NULL);
+      const double fm = c3_shear(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1 - h, NULL);
       e1 = fmax(e1, c3_fd_rel(d1, (fp - fm) / (2 * h), fabs(d1)));
-      e2 = fmax(e2, c3_fd_rel(d2, (d1p - d1m) / (2 * h), fmax(fabs(d2), 1e-3 * fabs(d1) / fmax(fabs(I1), 1))));
+      c3_shear_sq(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1, &p1, &p2);
+      const double qp = c3_shear_sq(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1 + h, &p1p, NULL);
+      const double qm = c3_shear_sq(cs[c].C, cs[c].M, cs[c].Xi, cs[c].kappa, cs[c].X, cs[c].cap, I1 - h, &p1m, NULL);
+      e2 = fmax(e2, c3_fd_rel(p1, (qp - qm) / (2 * h), fabs(p1)));
+      e3 = fmax(e3, c3_fd_rel(p2, (p1p - p1m) / (2 * h), fmax(fabs(p2), 1e-3 * fabs(p1) / fmax(fabs(I1), 1))));
     }
-  printf("cap3 derivatives vs central differences: Lode gradient %.2e, Hessian %.2e; shear slope %.2e, "
-         "curvature %.2e\n", eg, eh, e1, e2);
-  ck_assert(eg < 1e-6 && eh < 1e-6 && e1 < 1e-6 && e2 < 1e-6);
+  printf("cap3 derivatives vs central differences: Lode gradient %.2e, Hessian %.2e; shear slope %.2e; its signed "
+         "square's slope %.2e, curvature %.2e\n", eg, eh, e1, e2, e3);
+  ck_assert(eg < 1e-6 && eh < 1e-6 && e1 < 1e-6 && e2 < 1e-6 && e3 < 1e-6);
 }
 END_TEST
 

@@ -1,5 +1,6 @@
 /* cap3's yield-surface pieces as pure functions of the principal stresses, with the first and
- * second derivatives its Newton return needs (the analytic Jacobian of cap3.c's residual);
+ * second derivatives its Newton return needs (the analytic Jacobian of cap3.c's residual, whose
+ * flow direction is built from the signed square of the shear function, c3_shear_sq);
  * tests/unit/test_cap3.c checks them against central differences. Tension positive, I1 = tr. */
 #ifndef EJ_CAP3_MATH_H
 #define EJ_CAP3_MATH_H
@@ -21,14 +22,34 @@ static inline ej_real c3_ff2(ej_real C, ej_real M, ej_real Xi, ej_real I1)
 static inline ej_real c3_tip_I1(ej_real C, ej_real M, ej_real Xi) { return C >= M * Xi ? Xi : 2 * C / M - Xi; }
 
 /* sqrt(F_c) F_f (Eqs 57, 58) as a signed, continuous function of I1 (negative outside the
- * admissible I1 range, so that f > 0 there), with its first and second derivatives in I1 (either
- * pointer may be NULL). Beyond the tension tip (I1 > c3_tip_I1) it is negative although
- * F_f^2 = (C - M I1)^2 - (C - M Xi)^2 turns positive again there (the hyperbola's other branch,
- * mirrored about I1 = C/M; for the cone C = M Xi there is no negative band at all): taking that
- * branch as admissible let a point carry any hydrostatic tension (found 2026-11-30 with a
- * cohesionless cone, C = 1 Pa: 1.8 MPa of tension under a dilating strain path). */
+ * admissible I1 range, so that f > 0 there), with its derivative in I1 (d1 may be NULL). Beyond
+ * the tension tip (I1 > c3_tip_I1) it is negative although F_f^2 = (C - M I1)^2 - (C - M Xi)^2
+ * turns positive again there (the hyperbola's other branch, mirrored about I1 = C/M; for the cone
+ * C = M Xi there is no negative band at all): taking that branch as admissible let a point carry
+ * any hydrostatic tension (found 2026-11-30 with a cohesionless cone, C = 1 Pa: 1.8 MPa of tension
+ * under a dilating strain path). At a root (the tips) the slope is unbounded: taken large with
+ * Q' 's sign. */
 static inline ej_real c3_shear(ej_real C, ej_real M, ej_real Xi, ej_real kappa, ej_real X, bool cap, ej_real I1,
-                               ej_real *d1, ej_real *d2)
+                               ej_real *d1)
+{
+  const ej_real ff2 = c3_ff2(C, M, Xi, I1), dff2 = -2 * M * (C - M * I1);
+  ej_real fc = 1, dfc = 0;
+  if (cap && I1 < kappa) {
+    const ej_real w = X - kappa, z = (I1 - kappa) / w;
+    fc = 1 - z * z, dfc = -2 * z / w;
+  }
+  const ej_real Q = fc * ff2, Q1 = dfc * ff2 + fc * dff2;
+  const bool neg = fc < 0 || ff2 < 0 || I1 > c3_tip_I1(C, M, Xi);
+  const ej_real r = sqrt(fabs(Q)), sQ = Q < 0 ? -1 : 1, sg = neg ? -1 : 1;
+  if (d1) *d1 = sg * sQ * Q1 / (2 * fmax(r, 1e-300)); /* d/dI1 sg sqrt|Q| = sg sQ Q' / (2 r) */
+  return sg * r;
+}
+
+/* The signed square P = S |S| = +-|F_c F_f^2| of c3_shear's S (a polynomial in I1 on each
+ * branch: finite slopes where S has a vertical tangent, at the tension and cap tips) and its first
+ * and second derivatives in I1 (either pointer may be NULL). */
+static inline ej_real c3_shear_sq(ej_real C, ej_real M, ej_real Xi, ej_real kappa, ej_real X, bool cap, ej_real I1,
+                                  ej_real *d1, ej_real *d2)
 {
   const ej_real ff2 = c3_ff2(C, M, Xi, I1), dff2 = -2 * M * (C - M * I1), ddff2 = 2 * M * M;
   ej_real fc = 1, dfc = 0, ddfc = 0;
@@ -36,25 +57,14 @@ static inline ej_real c3_shear(ej_real C, ej_real M, ej_real Xi, ej_real kappa, 
     const ej_real w = X - kappa, z = (I1 - kappa) / w;
     fc = 1 - z * z, dfc = -2 * z / w, ddfc = -2 / (w * w);
   }
-  const ej_real Q = fc * ff2, Q1 = dfc * ff2 + fc * dff2, Q2 = ddfc * ff2 + 2 * dfc * dff2 + fc * ddff2;
+  const ej_real Q = fc * ff2;
   const bool neg = fc < 0 || ff2 < 0 || I1 > c3_tip_I1(C, M, Xi);
-  const ej_real r = sqrt(fabs(Q)), sQ = Q < 0 ? -1 : 1, sg = neg ? -1 : 1;
-  /* d/dI1 sg sqrt|Q| = sg sQ Q' / (2 r);  d2 = sg sQ (Q'' / (2 r) - sQ Q'^2 / (4 r^3)). At a root of
-   * Q (r = 0: the tension tip, or the cone M_g = 0 where Q_g = 0 everywhere) the slope is taken
-   * large with Q' 's sign and the curvature 0 (r^3 would underflow and give 0/0). */
-  if (d1) *d1 = sg * sQ * Q1 / (2 * fmax(r, 1e-300));
-  if (d2) *d2 = r > 1e-90 ? sg * sQ * (Q2 / (2 * r) - sQ * Q1 * Q1 / (4 * r * r * r)) : 0;
-  return sg * r;
+  const ej_real k = (neg ? -1 : 1) * (Q < 0 ? -1 : 1);
+  if (d1) *d1 = k * (dfc * ff2 + fc * dff2);
+  if (d2) *d2 = k * (ddfc * ff2 + 2 * dfc * dff2 + fc * ddff2);
+  return k * Q;
 }
 
-/* Gamma(beta) sqrt(J2) of Eq 61 (Gamma = (1 + S + (1 - S)/psi)/2, S = sin 3beta =
- * -3 sqrt3 J3 / (2 J2^1.5), clamped to [-1, 1]), its gradient and its Hessian in the principal
- * stresses (either may be NULL; both zero at a hydrostatic point, where the cone has its apex).
- * Unclamped it is a0 sqrt(J2) - k J3 / J2 with a0 = (1 + 1/psi)/2, k = (3 sqrt3 / 4)(1 - 1/psi),
- * which gives the Hessian: with s the deviator, P = I - 1/3, t = dJ3/dsigma = s^2 - 2 J2/3,
- *   d2 sqrt(J2) = P / (2 sqrt J2) - s s^T / (4 J2^1.5),
- *   d2 (J3/J2) = T / J2 - (t s^T + s t^T) / J2^2 - J3 P / J2^2 + 2 J3 s s^T / J2^3,
- *   T_AB = d2 J3 / dsigma_A dsigma_B = 2 s_A delta_AB - 2 (s_A + s_B) / 3. */
 /* Gamma sqrt(J2) from the invariants (the value c3_lode below returns). */
 static inline ej_real c3_lode_inv(ej_real psi, ej_real J2, ej_real J3, ej_real scale)
 {
