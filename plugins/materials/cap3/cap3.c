@@ -432,7 +432,7 @@ static int c3_return(const c3_state *s, const ej_real tr[3], ej_real gamma_n, ej
      * equation the tip return solves, to its tolerance). |f| there is not a usable test: at a
      * hyperbola's tip S grows as sqrt(I1 distance), so a 1e-15 relative error in I1 reads as
      * |f| ~ 0.06 Pa, above 1e-8 of the stress scale; such tip returns went to the radial fallback
-     * (measured 2026-11-30: all the fallbacks left in test_cap3_methods). */
+     * (measured 2026-11-30: all the fallbacks left in test_003_models_methods). */
     const ej_real I1t = x[0] + x[1] + x[2];
     const bool at_tip = tension && fabs(I1t - c3_tip_I1(v->C, s->cfg.M, v->Xi)) <= 1e-12 * c.sc;
     if (at_tip || fabs(Rt[3]) <= 1e-8 * s->scale || (tension && c3_lode(s->cfg.psi, tr, NULL, NULL, s->scale) < 1e-12 * s->scale)) {
