@@ -21,33 +21,14 @@ static inline ej_real c3_ff2(ej_real C, ej_real M, ej_real Xi, ej_real I1)
  * 2C/M - Xi of (C - M I1)^2 = (C - M Xi)^2 (Table 2's residual values have C_res < M Xi_max). */
 static inline ej_real c3_tip_I1(ej_real C, ej_real M, ej_real Xi) { return C >= M * Xi ? Xi : 2 * C / M - Xi; }
 
-/* sqrt(F_c) F_f (Eqs 57, 58) as a signed, continuous function of I1 (negative outside the
- * admissible I1 range, so that f > 0 there), with its derivative in I1 (d1 may be NULL). Beyond
- * the tension tip (I1 > c3_tip_I1) it is negative although F_f^2 = (C - M I1)^2 - (C - M Xi)^2
- * turns positive again there (the hyperbola's other branch, mirrored about I1 = C/M; for the cone
- * C = M Xi there is no negative band at all): taking that branch as admissible let a point carry
- * any hydrostatic tension (found 2026-11-30 with a cohesionless cone, C = 1 Pa: 1.8 MPa of tension
- * under a dilating strain path). At a root (the tips) the slope is unbounded: taken large with
- * Q' 's sign. */
-static inline ej_real c3_shear(ej_real C, ej_real M, ej_real Xi, ej_real kappa, ej_real X, bool cap, ej_real I1,
-                               ej_real *d1)
-{
-  const ej_real ff2 = c3_ff2(C, M, Xi, I1), dff2 = -2 * M * (C - M * I1);
-  ej_real fc = 1, dfc = 0;
-  if (cap && I1 < kappa) {
-    const ej_real w = X - kappa, z = (I1 - kappa) / w;
-    fc = 1 - z * z, dfc = -2 * z / w;
-  }
-  const ej_real Q = fc * ff2, Q1 = dfc * ff2 + fc * dff2;
-  const bool neg = fc < 0 || ff2 < 0 || I1 > c3_tip_I1(C, M, Xi);
-  const ej_real r = sqrt(fabs(Q)), sQ = Q < 0 ? -1 : 1, sg = neg ? -1 : 1;
-  if (d1) *d1 = sg * sQ * Q1 / (2 * fmax(r, 1e-300)); /* d/dI1 sg sqrt|Q| = sg sQ Q' / (2 r) */
-  return sg * r;
-}
-
-/* The signed square P = S |S| = +-|F_c F_f^2| of c3_shear's S (a polynomial in I1 on each
- * branch: finite slopes where S has a vertical tangent, at the tension and cap tips) and its first
- * and second derivatives in I1 (either pointer may be NULL). */
+/* The signed square P = S |S| = +-|F_c F_f^2| of the shear function S below (a polynomial in I1 on
+ * each branch: finite slopes where S has a vertical tangent, at the tension and cap tips) and its
+ * first and second derivatives in I1 (either pointer may be NULL). The sign is that of S: negative
+ * outside the admissible I1 range. Beyond the tension tip (I1 > c3_tip_I1) it is negative although
+ * F_f^2 = (C - M I1)^2 - (C - M Xi)^2 turns positive again there (the hyperbola's other branch,
+ * mirrored about I1 = C/M; for the cone C = M Xi there is no negative band at all): taking that
+ * branch as admissible let a point carry any hydrostatic tension (found 2026-11-30 with a
+ * cohesionless cone, C = 1 Pa: 1.8 MPa of tension under a dilating strain path). */
 static inline ej_real c3_shear_sq(ej_real C, ej_real M, ej_real Xi, ej_real kappa, ej_real X, bool cap, ej_real I1,
                                   ej_real *d1, ej_real *d2)
 {
@@ -63,6 +44,20 @@ static inline ej_real c3_shear_sq(ej_real C, ej_real M, ej_real Xi, ej_real kapp
   if (d1) *d1 = k * (dfc * ff2 + fc * dff2);
   if (d2) *d2 = k * (ddfc * ff2 + 2 * dfc * dff2 + fc * ddff2);
   return k * Q;
+}
+
+/* S = sqrt(F_c) F_f (Eqs 57, 58) as a signed, continuous function of I1 (negative outside the
+ * admissible I1 range, so that f > 0 there: the sign of c3_shear_sq), with its derivative in I1
+ * (d1 may be NULL): S = sgn(P) sqrt|P|, S' = P' / (2 sqrt|P|). At a root (the tips) the slope is
+ * unbounded: taken large with P' 's sign. */
+static inline ej_real c3_shear(ej_real C, ej_real M, ej_real Xi, ej_real kappa, ej_real X, bool cap, ej_real I1,
+                               ej_real *d1)
+{
+  ej_real P1;
+  const ej_real P = c3_shear_sq(C, M, Xi, kappa, X, cap, I1, d1 ? &P1 : NULL, NULL);
+  const ej_real r = sqrt(fabs(P));
+  if (d1) *d1 = P1 / (2 * fmax(r, 1e-300));
+  return copysign(r, P);
 }
 
 /* Gamma sqrt(J2) from the invariants (the value c3_lode below returns). */
