@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_tmpdir.h"
 
 /* ------------------------------------------------------------------ a point-mass method */
 
@@ -319,8 +320,7 @@ static void run_open(run *r, const char *text, const char *restart)
 {
   if (!restart) {
     memset(r, 0, sizeof *r);
-    snprintf(r->dir, sizeof r->dir, "/tmp/ej_abi11_XXXXXX");
-    ck_assert_ptr_nonnull(mkdtemp(r->dir));
+    ej_test_tmpdir(r->dir, sizeof r->dir, "abi11");
     snprintf(r->scene, sizeof r->scene, "%s/s.yaml", r->dir);
     snprintf(r->out, sizeof r->out, "%s/out.h5", r->dir);
     FILE *f = fopen(r->scene, "w");
@@ -466,8 +466,7 @@ START_TEST(test_prescribed_velocity_work)
 {
   run r;
   memset(&r, 0, sizeof r);
-  snprintf(r.dir, sizeof r.dir, "/tmp/ej_abi11_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(r.dir));
+  ej_test_tmpdir(r.dir, sizeof r.dir, "abi11");
   snprintf(r.scene, sizeof r.scene, "%s/s.yaml", r.dir);
   snprintf(r.out, sizeof r.out, "%s/out.h5", r.dir);
   FILE *f = fopen(r.scene, "w");

@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include "test_tmpdir.h"
 
 #define EJECTA EJ_TEST_BINARY_DIR "/bin/ejecta"
 
@@ -16,8 +17,7 @@ static char tmpdir[256];
 
 static void make_tmpdir(void)
 {
-  snprintf(tmpdir, sizeof tmpdir, "/tmp/ejecta_cli_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(tmpdir));
+  ej_test_tmpdir(tmpdir, sizeof tmpdir, "cli");
 }
 
 static void write_file(const char *path, const char *text)

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include "test_tmpdir.h"
 
 #define DOCS EJ_TEST_SOURCE_DIR "/docs/plugins"
 #define FIX "run 'make docs' (ejecta describe --markdown -o docs/plugins) and commit docs/plugins"
@@ -50,8 +51,8 @@ static void list_md(const char *dir, char *out, size_t cap)
 
 START_TEST(test_docs_fresh)
 {
-  char tmp[] = "/tmp/ejecta_docs_XXXXXX", cmd[1024];
-  ck_assert_ptr_nonnull(mkdtemp(tmp));
+  char tmp[256], cmd[1024];
+  ej_test_tmpdir(tmp, sizeof tmp, "docs");
   /* Only the in-tree plugins (the build tree): test fixtures must not leak into the docs. */
   snprintf(cmd, sizeof cmd, "EJECTA_PLUGIN_PATH= %s/bin/ejecta describe --markdown -o %s > /dev/null 2> %s/err.txt",
            EJ_TEST_BINARY_DIR, tmp, tmp);
@@ -86,8 +87,8 @@ END_TEST
  * same page to stdout. */
 START_TEST(test_docs_page)
 {
-  char tmp[] = "/tmp/ejecta_docs_XXXXXX", cmd[1024];
-  ck_assert_ptr_nonnull(mkdtemp(tmp));
+  char tmp[256], cmd[1024];
+  ej_test_tmpdir(tmp, sizeof tmp, "docs");
   snprintf(cmd, sizeof cmd, "EJECTA_PLUGIN_PATH= %s/bin/ejecta describe --markdown ideal_gas > %s/page.md",
            EJ_TEST_BINARY_DIR, tmp);
   ck_assert_int_eq(system(cmd), 0);

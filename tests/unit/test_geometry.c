@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "scene_impl.h"
+#include "test_tmpdir.h"
 
 typedef struct shape_fix {
   ej_doc *doc;
@@ -665,8 +666,7 @@ static void cleanup_tmp(void)
 
 static void setup_tmp(void)
 {
-  snprintf(tmpdir, sizeof tmpdir, "/tmp/ej_test_geometry_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(tmpdir));
+  ej_test_tmpdir(tmpdir, sizeof tmpdir, "geometry");
 }
 
 START_TEST(test_csv_good)

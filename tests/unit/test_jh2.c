@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include "material_point_driver.h"
+#include "test_tmpdir.h"
 
 const ej_plugin_info *ej_plugin_jh2_info(void);
 const ej_plugin_info *ej_plugin_tlpd_info(void);
@@ -340,8 +341,7 @@ typedef struct srun {
 static void srun_dir(srun *r)
 {
   memset(r, 0, sizeof *r);
-  snprintf(r->dir, sizeof r->dir, "/tmp/ej_jh2_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(r->dir));
+  ej_test_tmpdir(r->dir, sizeof r->dir, "jh2");
   snprintf(r->path, sizeof r->path, "%s/s.yaml", r->dir);
 }
 

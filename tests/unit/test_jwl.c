@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_tmpdir.h"
 
 const ej_plugin_info *ej_plugin_jwl_info(void);
 const ej_plugin_info *ej_plugin_sph_info(void);
@@ -514,8 +515,7 @@ static ej_err load_scene(const char *eos, ej_scene **sc, ej_registry *reg)
 
 START_TEST(test_bad_input)
 {
-  snprintf(tmpdir, sizeof tmpdir, "/tmp/ej_test_jwl_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(tmpdir));
+  ej_test_tmpdir(tmpdir, sizeof tmpdir, "jwl");
   ej_registry *reg;
   ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
   ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_jwl_info()), EJ_OK);
@@ -582,8 +582,7 @@ START_TEST(test_material_files)
     double D;
   } files[] = {{"c4_000.yaml", "c4", 8189}, {"c4_001.yaml", "c4", 8195}, {"tnt_001.yaml", "tnt", 6929},
                {"explosive_002.yaml", "explosive", 6688}};
-  snprintf(tmpdir, sizeof tmpdir, "/tmp/ej_test_jwl_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(tmpdir));
+  ej_test_tmpdir(tmpdir, sizeof tmpdir, "jwl");
   ej_registry *reg;
   ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
   ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_jwl_info()), EJ_OK);

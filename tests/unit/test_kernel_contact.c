@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_tmpdir.h"
 
 const ej_plugin_info *ej_plugin_rkpm_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
@@ -43,9 +44,8 @@ static void set_momentum(const ej_set *s, double p[3], double *scale)
 
 static void collide(double mu, int threads, kc_result *res)
 {
-  char dir[] = "/tmp/ej_kc_XXXXXX";
-  ck_assert_ptr_nonnull(mkdtemp(dir));
-  char scene[128], out[128];
+  char dir[256], scene[512], out[512];
+  ej_test_tmpdir(dir, sizeof dir, "kc");
   snprintf(scene, sizeof scene, "%s/kc.yaml", dir);
   snprintf(out, sizeof out, "%s/kc.h5", dir);
   FILE *fp = fopen(scene, "w");
@@ -89,12 +89,7 @@ static void collide(double mu, int threads, kc_result *res)
   ej_sim_destroy(sim);
   ej_scene_destroy(sc);
   ej_registry_destroy(reg);
-  unlink(scene);
-  unlink(out);
-  char side[160];
-  snprintf(side, sizeof side, "%s/kc.xdmf", dir);
-  unlink(side);
-  rmdir(dir);
+  ej_test_rmtree(dir);
 }
 
 START_TEST(test_momentum_and_friction)

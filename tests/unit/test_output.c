@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_tmpdir.h"
 
 #define N_CHARGE 7
 #define N_SOIL 5
@@ -88,8 +89,7 @@ static const ej_field_decl soil_fields[] = {
 static void fixture_init(fixture *fx)
 {
   memset(fx, 0, sizeof *fx);
-  snprintf(fx->dir, sizeof fx->dir, "/tmp/ej_output_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(fx->dir));
+  ej_test_tmpdir(fx->dir, sizeof fx->dir, "output");
   /* Two missing levels: open must create them. */
   snprintf(fx->path, sizeof fx->path, "%s/a/b/run.h5", fx->dir);
   fx->doc.path = "scenes/run.yaml";

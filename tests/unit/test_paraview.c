@@ -16,6 +16,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include "test_tmpdir.h"
 
 #define EJECTA EJ_TEST_BINARY_DIR "/bin/ejecta"
 #define RENDER EJ_TEST_SOURCE_DIR "/tools/render.py"
@@ -33,8 +34,7 @@ static int sh(const char *cmd)
 /* A short 2D run, and the range of rho in its last frame read from the HDF5 file. */
 static void setup(void)
 {
-  snprintf(tmpdir, sizeof tmpdir, "/tmp/ejecta_paraview_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(tmpdir));
+  ej_test_tmpdir(tmpdir, sizeof tmpdir, "paraview");
   char path[400], cmd[1200];
   snprintf(path, sizeof path, "%s/blast.yaml", tmpdir);
   FILE *f = fopen(path, "w");

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_tmpdir.h"
 
 const ej_plugin_info *ej_plugin_pd_info(void);
 
@@ -25,8 +26,7 @@ typedef struct pb_run {
 static ej_err pb_open(pb_run *r, double v0, double until_us, double t_end_us, int threads)
 {
   memset(r, 0, sizeof *r);
-  snprintf(r->dir, sizeof r->dir, "/tmp/ej_pdbudget_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(r->dir));
+  ej_test_tmpdir(r->dir, sizeof r->dir, "pdbudget");
   snprintf(r->scene, sizeof r->scene, "%s/s.yaml", r->dir);
   snprintf(r->out, sizeof r->out, "%s/out.h5", r->dir);
   char until[64] = "";
@@ -164,8 +164,7 @@ START_TEST(test_until_input_errors)
   pb_close(&r);
   /* a negative time is refused with the scene's location */
   memset(&r, 0, sizeof r);
-  snprintf(r.dir, sizeof r.dir, "/tmp/ej_pdbudget_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(r.dir));
+  ej_test_tmpdir(r.dir, sizeof r.dir, "pdbudget");
   snprintf(r.scene, sizeof r.scene, "%s/s.yaml", r.dir);
   const char *bad[] = {"-1 us", "[1, 2]", "3 m"};
   for (int k = 0; k < 3; ++k) {

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "scene_impl.h"
+#include "test_tmpdir.h"
 
 const ej_plugin_info *ej_plugin_sph_info(void);
 const ej_plugin_info *ej_plugin_ideal_gas_info(void);
@@ -20,8 +21,7 @@ static ej_registry *reg;
 
 static void setup(void)
 {
-  snprintf(tmpdir, sizeof tmpdir, "/tmp/ej_test_scene_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(tmpdir));
+  ej_test_tmpdir(tmpdir, sizeof tmpdir, "scene");
   ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
   ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_sph_info()), EJ_OK);
   ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_ideal_gas_info()), EJ_OK);

@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include "test_tmpdir.h"
 
 /* A sanitizer build (make test-sanitize) installs an instrumented libejecta: whatever links it
  * must be instrumented too, or the ASan runtime is not first in the library list. */
@@ -104,8 +105,7 @@ static double max_eps_p(const char *path)
 
 START_TEST(test_install_and_template)
 {
-  snprintf(prefix, sizeof prefix, "/tmp/ejecta_sdk_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(prefix));
+  ej_test_tmpdir(prefix, sizeof prefix, "sdk");
   snprintf(log_path, sizeof log_path, "%s/log.txt", prefix);
   const char *src = EJ_TEST_SOURCE_DIR, *bin = EJ_TEST_BINARY_DIR;
 

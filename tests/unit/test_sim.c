@@ -8,13 +8,13 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_tmpdir.h"
 
 static char dir[256];
 
 static ej_sim *make_sim(const char *text, ej_registry **reg, ej_scene **scene)
 {
-  snprintf(dir, sizeof dir, "/tmp/ejecta_sim_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(dir));
+  ej_test_tmpdir(dir, sizeof dir, "sim");
   char path[512], out[512];
   snprintf(path, sizeof path, "%s/s.yaml", dir);
   snprintf(out, sizeof out, "%s/out.h5", dir);

@@ -13,6 +13,7 @@
 #include "core_impl.h"
 #include "ejecta/tensor.h"
 #include "tlpd_trun.h"
+#include "test_tmpdir.h"
 
 
 static uint64_t rng_next(uint64_t *s)
@@ -1053,8 +1054,7 @@ static double ecorr_run(const char *dir, bool corr)
 START_TEST(test_energy_correction)
 {
   char dir[64];
-  snprintf(dir, sizeof dir, "/tmp/ej_tlpd_ec_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(dir));
+  ej_test_tmpdir(dir, sizeof dir, "tlpd_ec");
   const double off = ecorr_run(dir, false), on = ecorr_run(dir, true);
   rmdir(dir);
   fprintf(stderr, "tlpd energy balance / initial kinetic energy: %.3e without, %.3e with energy_correction\n", off, on);
@@ -1066,8 +1066,7 @@ END_TEST
 START_TEST(test_thread_determinism)
 {
   char dir[64];
-  snprintf(dir, sizeof dir, "/tmp/ej_tlpd_det_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(dir));
+  ej_test_tmpdir(dir, sizeof dir, "tlpd_det");
   ej_real *a, *b;
   ej_idx na, nb;
   det_run(1, dir, &a, &na);

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_tmpdir.h"
 
 const ej_plugin_info *ej_plugin_tlpd_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
@@ -28,8 +29,7 @@ static int crun_threads = 1;
 static ej_err crun_open(crun *r, const char *yaml)
 {
   memset(r, 0, sizeof *r);
-  snprintf(r->dir, sizeof r->dir, "/tmp/ej_tlpdc_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(r->dir));
+  ej_test_tmpdir(r->dir, sizeof r->dir, "tlpdc");
   snprintf(r->path, sizeof r->path, "%s/s.yaml", r->dir);
   snprintf(r->h5, sizeof r->h5, "%s/o.h5", r->dir);
   FILE *f = fopen(r->path, "w");

@@ -14,6 +14,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include "test_tmpdir.h"
 
 #define EJECTA EJ_TEST_BINARY_DIR "/bin/ejecta"
 
@@ -21,8 +22,7 @@ static char tmpdir[256];
 
 static void make_tmpdir(void)
 {
-  snprintf(tmpdir, sizeof tmpdir, "/tmp/ejecta_watchdog_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(tmpdir));
+  ej_test_tmpdir(tmpdir, sizeof tmpdir, "watchdog");
 }
 
 static void cleanup(void)

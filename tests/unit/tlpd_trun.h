@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_tmpdir.h"
 
 const ej_plugin_info *ej_plugin_tlpd_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
@@ -25,8 +26,7 @@ typedef struct trun {
 static inline void trun_dir(trun *r)
 {
   memset(r, 0, sizeof *r);
-  snprintf(r->dir, sizeof r->dir, "/tmp/ej_tlpd_XXXXXX");
-  ck_assert_ptr_nonnull(mkdtemp(r->dir));
+  ej_test_tmpdir(r->dir, sizeof r->dir, "tlpd");
   snprintf(r->path, sizeof r->path, "%s/s.yaml", r->dir);
 }
 

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_tmpdir.h"
 
 const ej_plugin_info *ej_plugin_sph_info(void);
 const ej_plugin_info *ej_plugin_ideal_gas_info(void);
@@ -27,8 +28,7 @@ typedef struct vrun {
 
 static inline void vrun_dir(char *dir, size_t n, const char *tag)
 {
-  snprintf(dir, n, "/tmp/ej_%s_XXXXXX", tag);
-  ck_assert_ptr_nonnull(mkdtemp(dir));
+  ej_test_tmpdir(dir, n, tag);
 }
 
 static inline void vrun_write(const char *path, const char *text)
