@@ -32,6 +32,7 @@ Usage: run.py [--ejecta PATH] [--big SCALE] [--no-big] [--big-steps N] [--only-b
   --big-steps steps (default 25) minus a 1-step run (set-up: CSV import, families), 1 and 2
   threads: time per step and memory. --only-big: only this part, merged into results.json.
 """
+import atexit
 import json
 import os
 import re
@@ -246,6 +247,7 @@ def main():
         sys.exit(f"ejecta not found at {EJECTA} (build it, or pass --ejecta PATH)")
     version = lammps_version()
     tmp = tempfile.mkdtemp(prefix="ej_lammps_peri_")
+    atexit.register(shutil.rmtree, tmp, ignore_errors=True)  # scratch: removed at exit
     csv = os.path.join(tmp, "target.csv")
     npart = make_target.write(csv, 1)
     results = {"lammps_version": version, "steps": STEPS, "particles": npart, "models": {},

@@ -16,9 +16,11 @@ deterministic, the code's own balance); with the core's default (dynamic, 1 chun
 under valgrind depends on valgrind's thread switching, not on the hardware. --top N also prints the N
 largest functions with their count per thread. Valgrind 3.19 (Debian 12) cannot run AVX-512 code: on a CPU with AVX-512 build ejecta for this
 script with `-DEJ_NATIVE=OFF` (x86-64-v2). The load on the machine does not enter the counts."""
+import atexit
 import glob
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -68,6 +70,7 @@ def callgrind(scene, wd, tag):
 
 def main():
     wd = tempfile.mkdtemp(prefix="ej_thread_split_")
+    atexit.register(shutil.rmtree, wd, ignore_errors=True)  # scratch: removed at exit
     csv = os.path.join(wd, "target.csv")
     make_target.write(csv, 1)
     sN = ejecta_scene(MODEL, wd, STEPS, csv)  # as run.py: v and damage frames every 1e-5 s

@@ -23,8 +23,10 @@ References (closed forms, see each plugin README):
 Usage: /usr/bin/python3 validation/material_points/run.py --build BUILD_DIR
 """
 import argparse
+import atexit
 import csv
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -66,6 +68,7 @@ def main():
     ap.add_argument("--out", default=HERE)
     a = ap.parse_args()
     tmp = tempfile.mkdtemp(prefix="ej_mp_")
+    atexit.register(shutil.rmtree, tmp, ignore_errors=True)  # scratch: removed at exit
     env = dict(os.environ, EJ_MP_CSV_DIR=tmp, CK_FORK="no")
     ok = True
     for t in TESTS:
