@@ -13,7 +13,9 @@ only the sub-box stabilisation. The ball has its own spacing (default d/8: 4 nod
 initial surface, when the ball has stopped) over d is compared with the experiment
 delta/d = 1.4, 2.4, 2.85 (+-0.2), tolerance 20 % relative (and the ball must have stopped:
 |v_z| < 5 % of v0 at the end), and with the Uehara et al. (2003) scaling law. Writes sphere_drop_msnni.png
-(sphere_drop.png with --integration dni), prints PASS/FAIL per height with the measured errors."""
+(sphere_drop.png with --integration dni), prints PASS/FAIL per height with the measured errors.
+--container seguin runs Seguin's Ø190 x 150 mm container instead of the narrow 42 x 42 x 84 mm
+quarter bed; --contact-damping sets kernel_contact's normal damping (README, fourteenth session)."""
 import argparse
 import math
 import os
@@ -29,6 +31,9 @@ R = D / 2
 G = 9.80665
 EXP = {0.1: 1.4, 0.3: 2.4, 0.5: 2.85}  # delta/d, +-0.2 (Seguin 2008 via 003 Table 12)
 TOL = 0.20
+# quarter bed (side, depth) [m]: the scene's narrow bed, and Seguin's Ø190 x 150 mm container (003's
+# set-up, shared/reference §7) as the quarter box that contains its quarter cylinder
+CONTAINERS = {"narrow": (0.042, 0.084), "seguin": (0.095, 0.15)}
 # the bed's rkpm `stabilization` (the method's default is 0.1): 0 since 2026-11-29, see the docstring;
 # validation/sphere_drop_methods uses the same value for its RKPM bed
 STABILIZATION = 0.0
@@ -80,12 +85,13 @@ def beads_material(phi, damage, model="dp"):
 
 def scene(h, s, t_end, phi, damage, width, depth, ball_mod, sb, integration="msnni", msnni_stress="material",
           msnni_w=0.5, stabilization=None, extra_bed="", bed=None, mu=0.3, every="0.5 ms", tag="sphere_drop",
-          header=None, beads="dp"):
+          header=None, beads="dp", contact_damping=0.0):
     """The scene; bed (the bed set's method lines) and the rest let validation/sphere_drop_methods
     put another method under the same ball, material, contact and walls."""
     v = math.sqrt(2 * G * h)
     zc = surface(s, depth) + R + 0.5 * s  # ball just above the surface (gap s/2)
     stab = "" if stabilization is None else f"\n    stabilization: {stabilization}"
+    cdamp = f", damping: {contact_damping:g}" if contact_damping else ""
     if bed is None:
         bed = (f"method: rkpm\n    integration: {integration}\n    msnni_stress: {msnni_stress}\n"
                f"    msnni_w: {msnni_w}{stab}{extra_bed}")
@@ -116,7 +122,7 @@ sets:
     spacing: {sb}
     velocity: [0, 0, {-v}]
 interactions:
-  - {{model: kernel_contact, sets: [bed, ball], mu: {mu}}}
+  - {{model: kernel_contact, sets: [bed, ball], mu: {mu}{cdamp}}}
 boundaries:
   - symmetry: {{point: [0, 0, 0], normal: [1, 0, 0]}}
   - symmetry: {{point: [0, 0, 0], normal: [0, 1, 0]}}
@@ -145,8 +151,12 @@ def main():
     ap.add_argument("--beads", default="dp", choices=["dp", "cap3_mc"],
                     help="bed material: dp (dp_damage, the compression cone of 003 Eq 51) or cap3_mc (cap3 without "
                          "cap or hardening, the same cone in compression and the Mohr-Coulomb Lode ratio)")
-    ap.add_argument("--width", type=float, default=0.042)
-    ap.add_argument("--depth", type=float, default=0.084)
+    ap.add_argument("--container", default="narrow", choices=sorted(CONTAINERS),
+                    help="bed size: narrow (the scene's 42 x 42 x 84 mm quarter, 2.2 d from the axis to the side "
+                         "wall) or seguin (Seguin's Ø190 x 150 mm container as a 95 x 95 x 150 mm quarter box; "
+                         "about 9 times the nodes and CPU); --width / --depth override either")
+    ap.add_argument("--width", type=float, default=None, help="quarter bed's side [m] (default: the container's)")
+    ap.add_argument("--depth", type=float, default=None, help="bed depth [m] (default: the container's)")
     ap.add_argument("--ball-modulus", default="296 MPa",
                     help="rigid ball's contact modulus (kernel_contact penalty); 296 MPa = the beads' P-wave modulus")
     ap.add_argument("--threads", type=int, default=2)
@@ -160,9 +170,15 @@ def main():
                     help="rkpm pairwise viscous `stabilization` of the bed (default 0; the method's own default is 0.1)")
     ap.add_argument("--msnni-part", default=None, choices=["full", "deviatoric"],
                     help="rkpm msnni_part (sub-box stabilisation on the full or deviatoric strain difference)")
+    ap.add_argument("--contact-damping", type=float, default=0.0,
+                    help="kernel_contact `damping` between ball and bed (fraction of critical per pair; default 0)")
     ap.add_argument("--no-figures", action="store_true", help="diagnostic runs: write no figures")
     ap.add_argument("--name-tag", default="", help="suffix for the run names (diagnostic runs)")
     a = ap.parse_args()
+    cw, cd = CONTAINERS[a.container]
+    a.width = cw if a.width is None else a.width
+    a.depth = cd if a.depth is None else a.depth
+    ctag = "" if a.container == "narrow" else "_" + a.container
     exe = common.ejecta_binary(a.build)
     s = a.spacing
     rows, ok = [], True
@@ -174,13 +190,14 @@ def main():
                 + ("" if a.beads == "dp" else "_" + a.beads)
                 + ("" if not a.stabilization else f"_stab{a.stabilization:g}")
                 + ("" if a.msnni_part is None else f"_{a.msnni_part[:3]}")
-                + a.name_tag)
+                + ("" if not a.contact_damping else f"_cd{a.contact_damping:g}")
+                + ctag + a.name_tag)
         r0 = os.times()
         path, wall = common.run(exe, scene(h, s, a.t_end, a.phi, a.damage, a.width, a.depth, a.ball_modulus,
                                                   a.ball_spacing, a.integration, a.msnni_stress,
                                                   a.msnni_w, a.stabilization,
                                                   "" if a.msnni_part is None else f"\n    msnni_part: {a.msnni_part}",
-                                                  beads=a.beads),
+                                                  beads=a.beads, contact_damping=a.contact_damping),
                                 name, a.out,
                                 threads=a.threads, reuse=a.reuse)
         r1 = os.times()
@@ -218,12 +235,14 @@ def main():
             ax[0].plot(t * 1000, pen / D, label=f"h = {h * 1000:.0f} mm")
         ax[0].set_xlabel("t [ms]"), ax[0].set_ylabel("depth / d"), ax[0].legend()
         Hd = [(r[0] + r[3]) / D for r in rows]
-        ax[1].plot(Hd, [r[3] / D for r in rows], "o-", label=f"ejecta RKPM bed {s * 1000:g} mm ({'DP cone' if a.beads == 'dp' else 'Mohr-Coulomb, cap3'}), rigid ball {a.ball_spacing * 1000:.3g} mm")
+        ax[1].plot(Hd, [r[3] / D for r in rows], "o-", label=f"ejecta RKPM bed {s * 1000:g} mm ({'DP cone' if a.beads == 'dp' else 'Mohr-Coulomb, cap3'}; "
+                   f"{a.width * 2000:.0f} x {a.depth * 1000:.0f} mm), rigid ball {a.ball_spacing * 1000:.3g} mm")
         ax[1].errorbar([6.1, 16.86, 27.7], [1.4, 2.4, 2.85], yerr=0.2, fmt="s", label="Seguin 2008")
         ax[1].plot([6.1, 16.86, 27.7], [0.83, 1.07, 1.38], "x", label="Chi et al. 2017 (Table 12)")
         hh = np.linspace(0.05, 0.55, 30)
         ax[1].plot([(x + uehara(x)) / D for x in hh], [uehara(x) / D for x in hh], "--", label="Uehara 2003")
-        ax[1].set_xlabel("H/d"), ax[1].set_ylabel("delta/d"), ax[1].legend(loc="upper left", fontsize=8)
+        ax[1].set_xlabel("H/d"), ax[1].set_ylabel("delta/d"), ax[1].set_ylim(top=3.9)
+        ax[1].legend(loc="upper left", fontsize=7)
         fig.tight_layout()
         # figure names: dni "", msnni with the material sub-box stress "_msnni", elastic "_msnni_elastic"
         tag = "" if a.integration == "dni" else "_" + a.integration + ("_elastic" if a.msnni_stress == "elastic" else "")
@@ -231,7 +250,8 @@ def main():
         tag += "_dev" if a.integration == "msnni" and a.msnni_part == "deviatoric" else ""
         tag += "" if not a.stabilization else f"_stab{a.stabilization:g}"
         tag += "" if a.beads == "dp" else "_" + a.beads
-        tag += a.name_tag
+        tag += "" if not a.contact_damping else f"_cd{a.contact_damping:g}"
+        tag += ctag + a.name_tag
         fig.savefig(os.path.join(os.path.dirname(os.path.abspath(__file__)), f"sphere_drop{tag}.png"), dpi=110)
         # the first drop height through tools/plot_series.py: the energy budget and the ball's centre z
         here = os.path.dirname(os.path.abspath(__file__))
