@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
 #include "test_tmpdir.h"
 
 #define EJECTA EJ_TEST_BINARY_DIR "/bin/ejecta"

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
 #include "test_tmpdir.h"
 
 #define DOCS EJ_TEST_SOURCE_DIR "/docs/plugins"

@@ -12,6 +12,7 @@
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
 #include "test_tmpdir.h"
 
 /* A sanitizer build (make test-sanitize) installs an instrumented libejecta: whatever links it
