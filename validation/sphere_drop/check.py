@@ -155,6 +155,8 @@ def main():
                     help="bed size: narrow (the scene's 42 x 42 x 84 mm quarter, 2.2 d from the axis to the side "
                          "wall) or seguin (Seguin's Ø190 x 150 mm container as a 95 x 95 x 150 mm quarter box; "
                          "about 9 times the nodes and CPU); --width / --depth override either")
+    ap.add_argument("--full", action="store_true",
+                    help="make validate: Seguin's container (--container seguin) and t_end at least 80 ms")
     ap.add_argument("--width", type=float, default=None, help="quarter bed's side [m] (default: the container's)")
     ap.add_argument("--depth", type=float, default=None, help="bed depth [m] (default: the container's)")
     ap.add_argument("--ball-modulus", default="296 MPa",
@@ -175,6 +177,8 @@ def main():
     ap.add_argument("--no-figures", action="store_true", help="diagnostic runs: write no figures")
     ap.add_argument("--name-tag", default="", help="suffix for the run names (diagnostic runs)")
     a = ap.parse_args()
+    if a.full:
+        a.container, a.t_end = "seguin", max(a.t_end, 0.08)
     cw, cd = CONTAINERS[a.container]
     a.width = cw if a.width is None else a.width
     a.depth = cd if a.depth is None else a.depth
