@@ -79,8 +79,7 @@ START_TEST(test_docs_fresh)
     free(tb);
     remove(a);
   }
-  snprintf(cmd, sizeof cmd, "rm -rf %s", tmp);
-  ck_assert_int_eq(system(cmd), 0);
+  ej_test_rmtree(tmp);
 }
 END_TEST
 
@@ -107,8 +106,7 @@ START_TEST(test_docs_page)
            EJ_TEST_BINARY_DIR);
   int st = system(cmd);
   ck_assert(WIFEXITED(st) && WEXITSTATUS(st) == 2);
-  snprintf(cmd, sizeof cmd, "rm -rf %s", tmp);
-  ck_assert_int_eq(system(cmd), 0);
+  ej_test_rmtree(tmp);
 }
 END_TEST
 

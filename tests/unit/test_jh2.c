@@ -366,9 +366,7 @@ static void srun_close(srun *r)
   ej_sim_destroy(r->sim);
   ej_scene_destroy(r->sc);
   ej_registry_destroy(r->reg);
-  char cmd[64];
-  snprintf(cmd, sizeof cmd, "rm -rf %s", r->dir);
-  ck_assert_int_eq(system(cmd), 0);
+  ej_test_rmtree(r->dir);
 }
 
 /* Under tlpd: a granite bar (examples/materials/granite_002.yaml's constants) pulled apart at its

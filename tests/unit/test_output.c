@@ -112,9 +112,7 @@ static void fixture_init(fixture *fx)
 
 static void remove_tree(const char *dir)
 {
-  char cmd[256];
-  snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-  if (system(cmd) != 0) fprintf(stderr, "note: could not remove %s\n", dir);
+  ej_test_rmtree(dir);
 }
 
 static void fixture_fini(fixture *fx)

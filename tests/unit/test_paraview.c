@@ -75,9 +75,7 @@ static void setup(void)
 
 static void teardown(void)
 {
-  char cmd[300];
-  snprintf(cmd, sizeof cmd, "rm -rf %s", tmpdir);
-  if (sh(cmd)) fprintf(stderr, "cannot remove %s\n", tmpdir);
+  ej_test_rmtree(tmpdir);
 }
 
 static void render(const char *python, const char *backend, const char *png)

@@ -28,9 +28,7 @@ static void make_tmpdir(void)
 
 static void cleanup(void)
 {
-  char cmd[400];
-  snprintf(cmd, sizeof cmd, "rm -rf %s", tmpdir);
-  ck_assert_int_eq(system(cmd), 0);
+  ej_test_rmtree(tmpdir);
 }
 
 static void write_scene(const char *name, const char *text)

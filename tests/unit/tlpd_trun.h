@@ -59,13 +59,7 @@ static inline void trun_close(trun *r)
   if (r->sim) ej_sim_destroy(r->sim);
   if (r->scene) ej_scene_destroy(r->scene);
   if (r->reg) ej_registry_destroy(r->reg);
-  char p[256];
-  const char *names[] = {"s.yaml", "o.h5", "o.h5.partial", "o.xdmf", "s.csv"};
-  for (int k = 0; k < 5; ++k) {
-    snprintf(p, sizeof p, "%s/%s", r->dir, names[k]);
-    unlink(p);
-  }
-  rmdir(r->dir);
+  ej_test_rmtree(r->dir);
 }
 
 /* zero a and rates, then both passes over two ranges (as the core does, without ghosts) */

@@ -108,13 +108,7 @@ static inline ej_err vscene_open(vscene *c, const char *tag, const ej_plugin_inf
 static inline void vscene_free(vscene *c)
 {
   vrun_free(&c->r);
-  char p[1024];
-  const char *names[] = {"s.yaml", "out.h5", "out.xdmf"};
-  for (int k = 0; k < 3; ++k) {
-    snprintf(p, sizeof p, "%s/%s", c->dir, names[k]);
-    unlink(p);
-  }
-  rmdir(c->dir);
+  ej_test_rmtree(c->dir);
 }
 
 /* Removes the files a run left in dir (scene, outputs, XDMF sidecars), then dir. */
