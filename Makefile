@@ -45,14 +45,19 @@ test-sanitize: deps
 	  ctest --test-dir $(ASAN) --output-on-failure -j $(JOBS)
 
 # ParaView (pvpython) and Xvfb for the ParaView check of the output (test_paraview renders
-# through ParaView under a virtual X server; it is skipped by `make test` when they are absent).
-VALIDATE_DEPS := paraview python3-paraview xvfb xauth
+# through ParaView under a virtual X server; it is skipped by `make test` when they are absent),
+# and PySPH, the peer that validation/pysph_taylor_bar runs in the same command.
+VALIDATE_DEPS := paraview python3-paraview xvfb xauth python3-pysph
 validate: build
 	@$(MAKE) --no-print-directory deps DEB_DEPS="$(VALIDATE_DEPS)"
 	ctest --test-dir $(BUILD) --output-on-failure -R '^test_paraview$$'
 	$(PYTHON) validation/run_all.py --build $(BUILD) --full
 
+# The peers the benchmarks run beside ejecta: PySPH (bench/pysph_sod.py) and LAMMPS with its
+# examples (bench/lammps_peri).
+BENCH_DEPS := python3-pysph lammps lammps-examples
 bench: build
+	@$(MAKE) --no-print-directory deps DEB_DEPS="$(BENCH_DEPS)"
 	$(PYTHON) bench/run_all.py --build $(BUILD)
 
 schema: build
