@@ -134,6 +134,9 @@ ej_err ej_shape_bounds(const ej_shape *s, ej_real lo[3], ej_real hi[3]);
 const ej_loc *ej_shape_loc(const ej_shape *s);
 
 typedef enum ej_lattice { EJ_LATTICE_CUBIC = 0, EJ_LATTICE_HCP = 1 } ej_lattice;
+/* Volume of a jittered particle (set key jitter_volume): its lattice cell's, or the cell's scaled
+ * by the kernel number density of the unjittered lattice over the jittered cloud's (ej_shape_fill). */
+typedef enum ej_jitter_volume { EJ_JITTER_VOLUME_CELL = 0, EJ_JITTER_VOLUME_KERNEL = 1 } ej_jitter_volume;
 
 /* Region-wise spacing: the first refinement region containing a point decides its spacing. */
 typedef struct ej_refine {
@@ -183,6 +186,7 @@ typedef struct ej_scene_set {
   ej_lattice lattice;
   ej_real jitter;        /* fraction of the local spacing, uniform in [-j/2, j/2] per component */
   uint64_t seed;
+  ej_jitter_volume jitter_volume;
   bool has_origin;       /* lattice_origin given: the lattice passes through origin */
   ej_real origin[3];
   ej_real mass;          /* > 0: the particles' volumes are scaled to this total mass */

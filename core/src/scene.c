@@ -97,11 +97,12 @@ static const char *const ej_mat_manual[] = {"eos", "model", NULL};
 typedef struct ej_set_cfg {
   ej_real spacing, jitter, rho, e, p, mass;
   ej_real lattice_origin[3];
-  int lattice;
+  int lattice, jitter_volume;
   int64_t seed;
 } ej_set_cfg;
 
 static const char *const ej_lattice_names[] = {"cubic", "hcp", NULL};
+static const char *const ej_jitter_volume_names[] = {"cell", "kernel", NULL};
 
 static const ej_param ej_set_params[] = {
     EJ_PARAM_REAL(ej_set_cfg, spacing, "m", 0, 0, 0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN,
@@ -111,6 +112,12 @@ static const ej_param ej_set_params[] = {
     EJ_PARAM_REAL(ej_set_cfg, jitter, "1", 0, 0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX | EJ_PF_MAX_OPEN,
                   "Random displacement of each coordinate, as a fraction of the local spacing."),
     EJ_PARAM_INT(ej_set_cfg, seed, 1, 0, 0, EJ_PF_HAS_MIN, "Seed of the jitter."),
+    EJ_PARAM_ENUM(ej_set_cfg, jitter_volume, ej_jitter_volume_names, "cell",
+                  "Volume (and so mass) of a jittered particle: cell, its lattice cell's, so that the local density "
+                  "of the cloud is off by up to the jitter per axis; kernel, the cell volume times the kernel number "
+                  "density of the unjittered lattice over that of the jittered cloud at the particle (cubic spline, "
+                  "h = 1.3 spacings), scaled so that the set's total volume is unchanged: the volumes then follow "
+                  "the arrangement (docs/core.md, \"Geometry\"). No effect without jitter."),
     EJ_PARAM_ARRAY(ej_set_cfg, lattice_origin, 3, "m", 0,
                    "A corner of a lattice cell: the lattice (and every refine region's) passes through this point "
                    "instead of the shape's lowest corner. Two sets with the same origin and spacing tile each other "
@@ -451,6 +458,7 @@ static ej_err ej_parse_set(ej_loader *L, int i)
   s->lattice = cfg.lattice == 1 ? EJ_LATTICE_HCP : EJ_LATTICE_CUBIC;
   s->jitter = cfg.jitter;
   s->seed = (uint64_t)cfg.seed;
+  s->jitter_volume = cfg.jitter_volume == 1 ? EJ_JITTER_VOLUME_KERNEL : EJ_JITTER_VOLUME_CELL;
   s->mass = cfg.mass;
   s->has_origin = ej_node_get(node, "lattice_origin") != NULL;
   memcpy(s->origin, cfg.lattice_origin, sizeof s->origin);
@@ -494,7 +502,8 @@ static ej_err ej_parse_set(ej_loader *L, int i)
     if (refine) EJ_TRY(ej_parse_refine(L, s, refine));
   } else {
     EJ_TRY(ej_resolve_file(L, s, file));
-    static const char *const shape_only[] = {"refine", "lattice", "jitter", "seed", "lattice_origin", NULL};
+    static const char *const shape_only[] = {"refine",         "lattice", "jitter", "seed", "jitter_volume",
+                                             "lattice_origin", NULL};
     for (int k = 0; shape_only[k]; ++k)
       if (ej_node_get(node, shape_only[k]))
         return ej_error_input(ej_node_key_loc(node, shape_only[k]),
@@ -934,7 +943,8 @@ ej_err ej_scene_set_points(const ej_scene *sc, int set, ej_points *pts)
                .n_refine = s->n_refine,
                .jitter = s->jitter,
                .seed = s->seed,
-               .origin = s->has_origin ? s->origin : NULL};
+               .origin = s->has_origin ? s->origin : NULL,
+               .jitter_volume = s->jitter_volume};
   EJ_TRY(ej_shape_fill(s->shape, &f, pts));
   if (pts->n == 0)
     return ej_error_input(&s->loc, "set '%s' has no particles: its shape holds no lattice point at spacing %g m",

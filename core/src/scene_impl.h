@@ -33,6 +33,7 @@ typedef struct ej_fill {
   ej_real jitter; /* fraction of the local spacing */
   uint64_t seed;
   const ej_real *origin; /* a cell corner of every lattice of the fill; NULL: the shape's lowest corner */
+  ej_jitter_volume jitter_volume; /* volumes of the jittered particles (ej_shape_fill) */
 } ej_fill;
 ej_err ej_shape_fill(const ej_shape *shape, const ej_fill *f, ej_points *out);
 

@@ -606,6 +606,95 @@ START_TEST(test_jitter)
 }
 END_TEST
 
+/* Cubic spline partition-of-unity sum S_i = sum_j V_j W(|x_ij|, h) over the points of p (O(n^2)). */
+static double pou_sum(const ej_points *p, int dim, ej_idx i, double h)
+{
+  const double sigma = dim == 1 ? 2.0 / 3.0 : 1.0 / M_PI;
+  double sum = 0.0;
+  for (ej_idx j = 0; j < p->n; ++j) {
+    double r2 = 0.0;
+    for (int k = 0; k < dim; ++k) r2 += (p->x[3 * i + k] - p->x[3 * j + k]) * (p->x[3 * i + k] - p->x[3 * j + k]);
+    const double q = sqrt(r2) / h;
+    const double w = q < 1 ? 1 - 1.5 * q * q + 0.75 * q * q * q : q < 2 ? 0.25 * (2 - q) * (2 - q) * (2 - q) : 0.0;
+    sum += p->vol[j] * sigma * w / pow(h, dim);
+  }
+  return sum;
+}
+
+static double vol_total(const ej_points *p)
+{
+  double t = 0.0;
+  for (ej_idx i = 0; i < p->n; ++i) t += p->vol[i];
+  return t;
+}
+
+/* jitter_volume: kernel. The volumes follow the jittered arrangement: in 1D against the exact
+ * (Voronoi) lengths, in 3D through the partition of unity of an SPH kernel other than the
+ * estimator's (h = 1.3 spacings); the positions are those of `cell`, the total volume is kept,
+ * and without jitter the volumes are the cells'. */
+START_TEST(test_jitter_volume)
+{
+  shape_fix f;
+  shape_ok(&f, "box: {min: [0], max: [1]}", 1);
+  ej_fill fl = {.dim = 1, .lattice = EJ_LATTICE_CUBIC, .spacing = 0.01, .jitter = 0.3, .seed = 7};
+  ej_points c, k;
+  ck_assert_int_eq(ej_shape_fill(f.shape, &fl, &c), EJ_OK);
+  fl.jitter_volume = EJ_JITTER_VOLUME_KERNEL;
+  ck_assert_int_eq(ej_shape_fill(f.shape, &fl, &k), EJ_OK);
+  ck_assert_int_eq(c.n, 100);
+  ck_assert_int_eq(k.n, c.n);
+  ck_assert(memcmp(c.x, k.x, (size_t)c.n * 3 * sizeof *c.x) == 0);
+  ck_assert(fabs(vol_total(&k) - vol_total(&c)) < 1e-14);
+  double ec = 0.0, ek = 0.0; /* rms deviation from the Voronoi lengths, 5 spacings from the ends */
+  int m = 0;
+  for (ej_idx i = 5; i < c.n - 5; ++i, ++m) {
+    const double vor = 0.5 * (c.x[3 * (i + 1)] - c.x[3 * (i - 1)]);
+    ec += (c.vol[i] / vor - 1) * (c.vol[i] / vor - 1);
+    ek += (k.vol[i] / vor - 1) * (k.vol[i] / vor - 1);
+  }
+  ec = sqrt(ec / m), ek = sqrt(ek / m);
+  printf("test_jitter_volume: 1D rms(V/V_voronoi - 1): cell %.4f, kernel %.4f\n", ec, ek);
+  ck_assert(ek < 0.5 * ec); /* measured 0.0626 -> 0.0173 */
+  ej_points_free(&c);
+  ej_points_free(&k);
+  /* no jitter: the cells' volumes, bitwise */
+  fl.jitter = 0.0;
+  ck_assert_int_eq(ej_shape_fill(f.shape, &fl, &k), EJ_OK);
+  for (ej_idx i = 0; i < k.n; ++i) ck_assert(k.vol[i] == 0.01);
+  ej_points_free(&k);
+  shape_close(&f);
+
+  /* 3D, 14^3 cube: S_i = sum_j V_j W_ij (h = 1.3 spacings) of the particles 3 spacings inside */
+  shape_ok(&f, "box: {min: [0, 0, 0], max: [1.4, 1.4, 1.4]}", 3);
+  fl = (ej_fill){.dim = 3, .lattice = EJ_LATTICE_CUBIC, .spacing = 0.1, .jitter = 0.3, .seed = 3};
+  ck_assert_int_eq(ej_shape_fill(f.shape, &fl, &c), EJ_OK);
+  fl.jitter_volume = EJ_JITTER_VOLUME_KERNEL;
+  ck_assert_int_eq(ej_shape_fill(f.shape, &fl, &k), EJ_OK);
+  ck_assert_int_eq(k.n, 14 * 14 * 14);
+  ck_assert(fabs(vol_total(&k) - vol_total(&c)) < 1e-12 * vol_total(&c));
+  ec = ek = 0.0, m = 0;
+  double vmin = 1e300, vmax = 0.0;
+  for (ej_idx i = 0; i < c.n; ++i) {
+    vmin = fmin(vmin, k.vol[i]), vmax = fmax(vmax, k.vol[i]);
+    bool inner = true;
+    for (int d = 0; d < 3; ++d) inner = inner && c.x[3 * i + d] > 0.3 && c.x[3 * i + d] < 1.1;
+    if (!inner) continue;
+    const double sc = pou_sum(&c, 3, i, 0.13) - 1, sk = pou_sum(&k, 3, i, 0.13) - 1;
+    ec += sc * sc, ek += sk * sk, ++m;
+  }
+  ec = sqrt(ec / m), ek = sqrt(ek / m);
+  printf("test_jitter_volume: 3D rms(S - 1) of %d inner particles: cell %.4f, kernel %.4f; V in [%.3f, %.3f] "
+         "cell volumes\n", m, ec, ek, vmin / 1e-3, vmax / 1e-3);
+  /* measured 0.0339 -> 0.0214 (0.63): the 3D kernel sums also carry the jittered quadrature's own
+   * error, which no volume removes; cell volumes back (ratio 1) or the ratio inverted fail */
+  ck_assert(ek < 0.75 * ec);
+  ck_assert(vmin > 0.5e-3 && vmax < 2e-3);
+  ej_points_free(&c);
+  ej_points_free(&k);
+  shape_close(&f);
+}
+END_TEST
+
 START_TEST(test_fill_errors)
 {
   shape_fix f;
@@ -780,6 +869,7 @@ int main(void)
   tcase_add_test(tc, test_refine_tiling);
   tcase_add_test(tc, test_lattice_origin);
   tcase_add_test(tc, test_jitter);
+  tcase_add_test(tc, test_jitter_volume);
   tcase_add_test(tc, test_fill_errors);
   suite_add_tcase(s, tc);
   tc = tcase_create("csv");

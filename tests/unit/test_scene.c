@@ -353,6 +353,12 @@ START_TEST(test_bad_misc)
   load_bad(HEAD "sets:\n  gas: {method: sph, material: air, file: particles.csv, spacing: 0.1,"
                 " lattice_origin: [0, 0, 0]}\n",
            "'lattice_origin' applies to sets filled from a shape", 6, 72);
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, file: particles.csv, spacing: 0.1,"
+                " jitter_volume: kernel}\n",
+           "'jitter_volume' applies to sets filled from a shape", 6, 72);
+  load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 1,"
+                " jitter: 0.1, jitter_volume: voronoi}\n",
+           "'jitter_volume' in set 'gas' must be one of cell, kernel, got 'voronoi'", 6, 125);
   load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 1,"
                 " lattice_origin: [0, 0]}\n",
            "must be a list of 3 numbers, got 2", 6, 113);
