@@ -79,8 +79,12 @@ def main():
     ap.add_argument("--alpha", type=float, default=None,
                     help="fixed Monaghan alpha at every spacing (default: alpha = 4 mm / dx, 001's alpha h)")
     ap.add_argument("--reuse", action="store_true")
+    ap.add_argument("--full", action="store_true",
+                    help="the spacings of the judged study (make validate): 20, 15 and 12 mm, judged at 12 mm")
     ap.add_argument("--only-existing", action="store_true", help="report only the runs already in --out")
     args = ap.parse_args()
+    if args.full:
+        args.spacing = [0.02, 0.015, 0.012]
     exe = common.ejecta_binary(args.build)
     base = open(os.path.join(common.ROOT, "examples", "sand_collapse.yaml")).read()
     import matplotlib

@@ -99,7 +99,11 @@ def main():
     ap.add_argument("--t-end", type=float, default=T_END)
     ap.add_argument("--rollers", choices=("symmetry", "fix"), default="symmetry",
                     help="side faces: symmetry planes (default) or fix: [x]/[y] on the outer particle layer")
+    ap.add_argument("--full", action="store_true",
+                    help="the judged resolution (make validate): dx 0.05 m, width 0.2 m, t_end 0.4 s")
     a = ap.parse_args()
+    if a.full:
+        a.dx, a.width, a.t_end = 0.05, 0.2, 0.4
     exe = common.ejecta_binary(a.build)
     import matplotlib
     matplotlib.use("Agg")
