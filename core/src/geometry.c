@@ -666,9 +666,9 @@ static ej_err ej_number_density(ej_nbrlist *L, int dim, const ej_real *x, const 
  * of the kernel number densities at the particle before and after the jitter (the lattice sum
  * cancels the truncation of both at the shape's boundary and the kernel's lattice bias), then one
  * factor restores the set's total volume. x0: the unjittered positions. Why h = 1.3 spacings
- * (docs/core.md, "Geometry"): on jitter 0.3 clouds it gives the SPH kernel sums
- * sum_j V_j W_ij closest to 1 at the sph method's default h (1D 2, 2D 1.5, 3D 1.3 spacings) among
- * 0.8-2 spacings, within 25 % of the best in each dimension, and the 1D Sod hard case passes. */
+ * (docs/core.md, "Geometry"): on jitter 0.3 clouds, among 0.8-2 spacings, it gives the SPH kernel
+ * sums sum_j V_j W_ij at the sph method's default h (1D 2, 2D 1.5, 3D 1.3 spacings) the closest to 1
+ * in 1D and within 20 % (2D) and 26 % (3D) of the best, and the 1D Sod hard case passes. */
 static ej_err ej_kernel_volumes(int dim, const ej_real *x0, ej_points *out)
 {
   const ej_idx n = out->n;
