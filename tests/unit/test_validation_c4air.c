@@ -1,7 +1,8 @@
 /* C4 products expanding into air in 1D (validation/c4_air, short version): the hard case of the
  * explosives issue, density ratio 1601 / 1.2 = 1334. A 10 mm C4 slab (JWL, digest 001 Table 1,
  * programmed burn lit at x = 0, symmetry plane there) against air (ideal gas, gamma 1.4,
- * 101325 Pa) in two sets coupled by `continuum` (volume pair form), both sph or both ulpd,
+ * 101325 Pa) in two sets coupled by `continuum` (volume pair form), both sph (kernel gradient with
+ * renormalize_interfaces, or the shape tensor) or both ulpd,
  * dx = 0.1 mm, 6 us (the front at 0.2 mm is too smeared for the 10 % velocity check:
  * check.py measured -11.9 % there, -0.2 % at 0.1 mm).
  *
@@ -61,7 +62,8 @@ static int c4air_read(hid_t f, const char *path, double *buf, int cap)
   return (int)dims[0];
 }
 
-static void c4air_run(const char *method, bool check_peak_p)
+/* method: the method and its options as they go into the set's flow mapping ("sph, ..."). */
+static void c4air_run(const char *method, bool check_peak_p, bool check_peak_u)
 {
   char dir[64], scene[128], out[128], text[2048];
   vrun_dir(dir, sizeof dir, "c4air");
@@ -136,18 +138,22 @@ static void c4air_run(const char *method, bool check_peak_p)
   ck_assert(rho_min > 0);
   ck_assert_msg(bal < 0.01, "energy balance %g", bal);
   if (check_peak_p) ck_assert_msg(fabs(p_air / C4AIR_P_STAR - 1) <= 0.15, "air peak pressure %g Pa", p_air);
-  ck_assert_msg(fabs(u_air / C4AIR_U_STAR - 1) <= 0.10, "air peak velocity %g m/s", u_air);
+  if (check_peak_u) ck_assert_msg(fabs(u_air / C4AIR_U_STAR - 1) <= 0.10, "air peak velocity %g m/s", u_air);
   const char *names[] = {"c4air.yaml", "c4air.h5", "c4air.xdmf"};
   vrun_cleanup(dir, names, 3);
 }
 
-START_TEST(test_c4_air_sph) { c4air_run("sph", true); }
+/* sph as examples/c4_air_1d.yaml: both sets renormalise their continuity across the interface */
+START_TEST(test_c4_air_sph) { c4air_run("sph, renormalize_interfaces: true", true, true); }
 END_TEST
 
-/* ulpd on both sides: the air next to the contact is over-compressed (density about 3x the
- * single-shock value) and the peak air pressure overshoots p* by 38 % at this spacing (a known
- * failure, validation/c4_air/README.md); robustness, energy and the front speed are checked. */
-START_TEST(test_c4_air_ulpd) { c4air_run("ulpd", false); }
+START_TEST(test_c4_air_ulpd) { c4air_run("ulpd", true, true); }
+END_TEST
+
+/* The shape-tensor gradient on both sets: the hard case's criteria (no NaN, rho > 0, balance
+ * < 1 %); its first air shock overshoots the Riemann state (+84 % in pressure, +24 % in velocity,
+ * here and in validation/c4_air's 30 us run), so the peaks are printed, not asserted. */
+START_TEST(test_c4_air_shape_tensor) { c4air_run("sph, gradient: shape_tensor", false, false); }
 END_TEST
 
 int main(void)
@@ -157,6 +163,7 @@ int main(void)
   tcase_set_timeout(tc, 120);
   tcase_add_test(tc, test_c4_air_sph);
   tcase_add_test(tc, test_c4_air_ulpd);
+  tcase_add_test(tc, test_c4_air_shape_tensor);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
