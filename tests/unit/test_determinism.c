@@ -82,7 +82,7 @@ static void det_scene(char *dir, size_t n)
   vrun_dir(dir, n, "det");
   char scene[128];
   snprintf(scene, sizeof scene, "%s/tube.yaml", dir);
-  char *text = sod_scene_text(3, 0.01, 0.2, 0.04, "tube.h5");
+  char *text = sod_scene_text(3, 0.01, 0.2, 0.04, "tube.h5", NULL);
   vrun_write(scene, text);
   free(text);
 }

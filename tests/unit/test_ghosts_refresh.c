@@ -92,7 +92,7 @@ START_TEST(test_tube_symmetry_ghosts)
   char dir[64], path[160];
   vrun_dir(dir, sizeof dir, "ghr");
   snprintf(path, sizeof path, "%s/tube.yaml", dir);
-  char *text = sod_scene_text(3, 0.01, 0.2, 0.04, "tube.h5");
+  char *text = sod_scene_text(3, 0.01, 0.2, 0.04, "tube.h5", NULL);
   vrun_write(path, text);
   free(text);
   gr_run(dir, "tube.yaml", 2, 20, false);

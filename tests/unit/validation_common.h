@@ -147,8 +147,10 @@ static inline void smooth_block_initial(char *buf, size_t n, double vscale)
 /* The Sod tube of validation/sod/check.py (sod_scene): one spacing on both sides, the jump
  * smoothed by (1 + tanh(x / w)) / 2 with w = 1.95 dx (Monaghan & Gingold 1983), one `initial`
  * strip per lattice column with |x| < 5 w. dim 1, or 3 with a periodic cross-section
- * [0, width]^2. Returns a malloc'ed scene text. */
-static inline char *sod_scene_text(int dim, double dx, double t_end, double width, const char *out)
+ * [0, width]^2. set_extra: more keys of the tube set, each line indented by 4 (NULL: none).
+ * Returns a malloc'ed scene text. */
+static inline char *sod_scene_text(int dim, double dx, double t_end, double width, const char *out,
+                                   const char *set_extra)
 {
   ej_buf b = {0};
   const char *lo3 = dim == 3 ? ", 0, 0" : "";
@@ -158,11 +160,11 @@ static inline char *sod_scene_text(int dim, double dx, double t_end, double widt
                                  "ejecta: 1\ndimension: %d\ntime: {end: %.17g, cfl: 0.3}\n"
                                  "output: {file: %s, fields: [v, m, rho, p, e, h]}\n"
                                  "materials:\n  gas: {rho0: 1, eos: {model: ideal_gas, gamma: 1.4}}\n"
-                                 "sets:\n  tube:\n    method: sph\n    material: gas\n"
+                                 "sets:\n  tube:\n    method: sph\n%s    material: gas\n"
                                  "    shape: {box: {min: [-0.5%s], max: [0.5%s]}}\n    spacing: %.17g\n"
                                  "    rho: 1\n    p: 1\n    initial:\n"
                                  "      - {region: {box: {min: [0%s], max: [0.5%s]}}, rho: 0.125, p: 0.1}\n",
-                                 dim, t_end, out, lo3, hi3, dx, lo3, hi3),
+                                 dim, t_end, out, set_extra ? set_extra : "", lo3, hi3, dx, lo3, hi3),
                    EJ_OK);
   const double w = 1.5 * 1.3 * dx;
   const int n = (int)lround(1.0 / dx);
