@@ -1091,6 +1091,29 @@ static ej_err ej_inter_pass(ej_sim *sim, ej_inter *in, int pass)
   return EJ_OK;
 }
 
+/* The method pass before which an interaction's pre-passes run (plugin.h, pre_pass_before): 0, or
+ * the first pass of a or b whose write mask has the named field; -1 when neither set has it. */
+static int ej_inter_pre_slot(const ej_inter *in)
+{
+  const char *name = EJ_HAS_OP(in->ops, ej_interaction_ops, pre_pass_before) ? in->ops->pre_pass_before : NULL;
+  if (!name) return 0;
+  int slot = -1;
+  const ej_set *sets[2] = {in->a, in->b};
+  for (int k = 0; k < 2; ++k) {
+    const ej_set *s = sets[k];
+    const int f = s ? ej_set_find_field(s, name) : -1;
+    if (f < 0) continue;
+    const int np = ej_set_passes(s);
+    for (int pass = 0; pass < np; ++pass) {
+      const uint64_t mask = pass + 1 <= EJ_MAX_PASS_MASKS ? s->pass_mask[pass + 1] : EJ_ALL_FIELDS;
+      if (!(mask & (UINT64_C(1) << f))) continue;
+      if (slot < 0 || pass < slot) slot = pass;
+      break;
+    }
+  }
+  return slot;
+}
+
 static ej_err ej_compute_all(ej_sim *sim, bool in_step)
 {
   int max_pass = 0;
@@ -1102,13 +1125,15 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
     const int np = ej_set_passes(sim->sets[i]);
     if (np > max_pass) max_pass = np;
   }
-  /* Interactions' pre-passes (n_pre_passes, plugin.h): before every method pass, x and v of t_n+1. */
-  for (int k = 0; k < sim->n_inter; ++k) {
-    ej_inter *in = &sim->inter[k];
-    const int npre = EJ_HAS_OP(in->ops, ej_interaction_ops, n_pre_passes) ? in->ops->n_pre_passes : 0;
-    for (int pass = -npre; pass < 0; ++pass) EJ_TRY(ej_inter_pass(sim, in, pass));
-  }
   for (int pass = 0; pass < max_pass; ++pass) {
+    /* Interactions' pre-passes (n_pre_passes, plugin.h): x and v of t_n+1, before the method pass
+     * ej_inter_pre_slot names (pass 0 unless pre_pass_before, ABI 1.7, names a later one). */
+    for (int k = 0; k < sim->n_inter; ++k) {
+      ej_inter *in = &sim->inter[k];
+      const int npre = EJ_HAS_OP(in->ops, ej_interaction_ops, n_pre_passes) ? in->ops->n_pre_passes : 0;
+      if (npre <= 0 || ej_inter_pre_slot(in) != pass) continue;
+      for (int q = -npre; q < 0; ++q) EJ_TRY(ej_inter_pass(sim, in, q));
+    }
     for (int i = 0; i < sim->n_sets; ++i) {
       ej_set *s = sim->sets[i];
       if (pass >= ej_set_passes(s)) continue;

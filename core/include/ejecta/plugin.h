@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 6 /* members appended to an info or ops struct        */
+#define EJ_ABI_MINOR 7 /* members appended to an info or ops struct        */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -474,6 +474,14 @@ typedef struct ej_interaction_ops {
    * sums and watchdog before it, in the sets' end-of-step regions (ej_method_ops.post_step_local).
    * false (or an older table): the diagnostics wait for it in a region of their own. */
   bool post_step_sums_only;
+  /* --- ABI 1.7. Where the pre-passes run. NULL (or an older table): before any method pass, as
+   * above. A field name: right before the first method pass, of a or b, whose pass_writes names
+   * that field (a method without pass_writes counts as writing every field in every pass), so the
+   * pre-passes see what the passes before it wrote (sph's h, floored rho, EOS) and feed the pass
+   * that reads them; in a scene where neither set has the field they do not run at all. `continuum`
+   * adds the other set's share of sph's shape tensor this way, before the pass that inverts it
+   * ("M_inv"). */
+  const char *pre_pass_before;
 } ej_interaction_ops;
 
 /* ------------------------------------------------------------------ registration */

@@ -14,11 +14,13 @@ typedef struct continuum_config {
   int continuity;
   ej_real alpha, beta, eta, h_factor;
   ej_real conductivity;
+  int gradient;
 } continuum_config;
 
 static const char *const continuum_kernels[] = {"cubic_spline", "wendland_c2", NULL};
 static const char *const continuum_forms[] = {"volume", "standard", NULL};
 static const char *const continuum_continuity[] = {"volume", "blend", NULL};
+static const char *const continuum_gradients[] = {"auto", "kernel", NULL};
 
 static const ej_param continuum_params[] = {
     EJ_PARAM_ENUM(continuum_config, kernel, continuum_kernels, "cubic_spline",
@@ -43,6 +45,13 @@ static const ej_param continuum_params[] = {
                   "Artificial conductivity alpha_u on the interface pairs (Price 2008): de_i/dt += sum_j m_j alpha_u "
                   "v_sig (e_i - e_j)/rhobar dW/dr, v_sig = sqrt(|p_i - p_j|/rhobar), both sets' e exchanged "
                   "antisymmetrically (energy conserved); needs e on both sets; 0 is off."),
+    EJ_PARAM_ENUM(continuum_config, gradient, continuum_gradients, "auto",
+                  "Pair gradient. auto: where a set runs sph with gradient: shape_tensor, its shape tensor M_i "
+                  "includes the other set's neighbours (a pre-pass before the pass that inverts it) and the "
+                  "interface pairs use sph's symmetric G_ij = (M_i^-1 + M_j^-1) w_ij x_ij / 2 (the kernel gradient "
+                  "for a side without it or on its fallback) in the stress, pdV and continuity terms, the kernel "
+                  "gradient in the viscosity; kernel: the kernel gradient grad_i W on every pair (the form before "
+                  "2026-11-30). Without a shape-tensor set both are the same."),
     {0}};
 
 typedef struct continuum_state {
@@ -60,7 +69,7 @@ static ej_err continuum_create(const void *config, ej_set *a, ej_set *b, void **
   EJ_ENSURE(s, EJ_ERR_MEM, "out of memory");
   s->P = (cpl_params){.kernel = c->kernel, .form = c->form, .continuity = c->continuity, .alpha = c->alpha,
                       .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor,
-                      .conductivity = c->conductivity};
+                      .conductivity = c->conductivity, .shape = c->gradient == 0};
   const ej_err rc = cpl_dt_init(&s->dt, a, b);
   if (rc != EJ_OK) {
     ej_free(s);
@@ -73,11 +82,14 @@ static ej_err continuum_create(const void *config, ej_set *a, ej_set *b, void **
 /* Binding per call: field pointers move when a set grows its ghosts at a rebuild. */
 static ej_err continuum_compute(void *state, ej_set *a, ej_set *b, const ej_nbr *ab, int pass, ej_range r)
 {
-  (void)pass;
   const continuum_state *s = state;
   cpl_side A, B;
   EJ_TRY(cpl_bind(&A, a, "continuum", s->P.h_factor));
   EJ_TRY(cpl_bind(&B, b, "continuum", s->P.h_factor));
+  if (pass < 0) { /* the pre-pass (before sph's shape pass): the other set's share of M_i */
+    if (s->P.shape) cpl_shape_share(&s->P, &A, &B, ab, r);
+    return EJ_OK;
+  }
   cpl_gather(&s->P, &A, &B, ab, r);
   cpl_dt_gather(&A, &B, ab, r, cpl_dt_of(&s->dt, a));
   return EJ_OK;
@@ -115,6 +127,8 @@ static const ej_interaction_ops continuum_ops = {
     .both_ways = true,
     .n_passes = 1,
     .n_sets = 2,
+    .n_pre_passes = 1,
+    .pre_pass_before = "M_inv",
 };
 
 static ej_err continuum_register(ej_registry *reg) { return ej_register_interaction(reg, &continuum_ops); }

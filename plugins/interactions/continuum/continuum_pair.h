@@ -42,6 +42,9 @@ typedef struct cpl_side {
   const ej_real *x, *v, *m, *vol0, *rho, *p, *stress, *c, *h, *e;
   ej_real *a, *rho_dot, *e_dot;
   ej_real *ren_div, *ren_norm; /* sph renormalize_interfaces: the raw divergence and norm sums */
+  const ej_real *Minv;         /* sph gradient: shape_tensor: M_i^-1 (SYM6), else NULL */
+  const int32_t *fb;           /* ... and its fallback flag (1: the row uses the kernel gradient) */
+  ej_real *Mcpl;               /* ... and the coupled sets' share of M_i (continuum's pre-pass adds to it) */
   ej_real c_fallback;  /* sound speed when the set has no c field */
   ej_real h_fallback;  /* h_factor, when the set has no h field */
   int spherical;       /* sph geometry: spherical (1D, x = r) with spherical_energy: pair (pdv_pair) */
@@ -59,6 +62,8 @@ typedef struct cpl_params {
   ej_real alpha, beta, eta;
   ej_real h_factor;
   ej_real conductivity; /* artificial conductivity alpha_u (Price 2008) on the interface pairs; 0: off */
+  int shape;            /* 1: a side with sph's shape tensor (M_inv) takes its half of G_ij (continuum
+                         * gradient: auto); 0: the kernel gradient on every pair */
 } cpl_params;
 
 /* A set with sph `renormalize_interfaces` (fields ren_div, ren_norm) takes the interface pairs'
@@ -96,6 +101,10 @@ static inline ej_err cpl_bind(cpl_side *s, ej_set *set, const char *who, ej_real
   s->e = ej_set_field(set, "e");
   s->ren_div = ej_set_field(set, "ren_div");
   s->ren_norm = ej_set_field(set, "ren_norm");
+  s->Minv = ej_set_field(set, "M_inv");
+  s->fb = ej_set_field_int(set, "grad_fallback");
+  s->Mcpl = ej_set_field(set, "M_cpl");
+  if (!s->Minv || !s->fb) s->Minv = NULL, s->fb = NULL, s->Mcpl = NULL;
   s->h_fallback = h_factor;
   if (!s->rho)
     EJ_FAIL(EJ_ERR_INPUT, "%s: set '%s' has no density field 'rho' (its method does not publish one)", who,
@@ -148,6 +157,56 @@ static inline ej_real cpl_hbar(const cpl_side *a, ej_idx i, const cpl_side *b, e
 
 static inline ej_real cpl_c(const cpl_side *s, ej_idx i) { return s->c ? s->c[i] : s->c_fallback; }
 
+/* Shape tensor across an interface (README "Shape tensor across an interface"; sph README
+ * "gradient: shape_tensor", digest 000 Eqs 29-31). A side whose method is sph with the shape
+ * tensor publishes M_inv (M_i^-1, Voigt), grad_fallback and M_cpl. Its M_i must run over every
+ * neighbour, the other set's too, or its consistent gradient is one-sided at the interface and
+ * the kernel pairs below count the interface a second time (validation/c4_air: +84 % on the first
+ * air shock). continuum's pre-pass, which the core runs right before the pass that inverts M_i
+ * (pre_pass_before "M_inv": after both sets' h, floored rho and EOS of t_n+1), adds
+ *   M_cpl_i += sum_j V_j w(|x_ij|, hbar) x_ij (x) x_ij,   V_j = m_j / rho_j,  x_ij = x_j - x_i,
+ * over the other set's neighbours j inside 2 hbar, with the pair's kernel and hbar, so that the
+ * pair gradient below is exact for linear fields across the interface. */
+static inline void cpl_shape_share(const cpl_params *P, const cpl_side *A, const cpl_side *B, const ej_nbr *ab,
+                                   ej_range r)
+{
+  if (!A->Mcpl) return;
+  const int dim = A->dim;
+  const ej_real sigma_k = sph_kernel_sigma(P->kernel, dim);
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    ej_real b[6] = {0, 0, 0, 0, 0, 0}; /* xx yy zz xy yz zx */
+    for (ej_off k = ab->off[i]; k < ab->off[i + 1]; ++k) {
+      const ej_idx j = ab->idx[k];
+      const ej_real dx[3] = {B->x[3 * j] - A->x[3 * i], dim > 1 ? B->x[3 * j + 1] - A->x[3 * i + 1] : 0.0,
+                             dim > 2 ? B->x[3 * j + 2] - A->x[3 * i + 2] : 0.0};
+      const ej_real r2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
+      const ej_real hbar = cpl_hbar(A, i, B, j);
+      if (r2 >= 4.0 * hbar * hbar || r2 <= 0) continue;
+      const ej_real ih = 1.0 / hbar;
+      const ej_real w =
+          (B->m[j] / B->rho[j]) * sigma_k * sph_inv_pow(ih, dim) * sph_kernel_f(P->kernel, dim, sqrt(r2) * ih);
+      b[0] += w * dx[0] * dx[0], b[1] += w * dx[1] * dx[1], b[2] += w * dx[2] * dx[2];
+      b[3] += w * dx[0] * dx[1], b[4] += w * dx[1] * dx[2], b[5] += w * dx[2] * dx[0];
+    }
+    for (int c = 0; c < 6; ++c) A->Mcpl[6 * i + c] += b[c];
+  }
+}
+
+/* Side s's half of G_ij for its particle k: M_k^-1 u (u = w_ij x_ij, x_ij = x_j - x_i seen from
+ * particle i of the gather), or the kernel gradient g = grad_i W_ij where s has no shape tensor
+ * or k's M was ill-conditioned (sph's fallback), as sph's own pairs do. */
+static inline void cpl_shape_half(const cpl_side *s, ej_idx k, const ej_real u[3], const ej_real g[3], ej_real out[3])
+{
+  if (!s->Minv || s->fb[k]) {
+    out[0] = g[0], out[1] = g[1], out[2] = g[2];
+    return;
+  }
+  const ej_real *M = s->Minv + 6 * k;
+  out[0] = M[0] * u[0] + M[3] * u[1] + M[5] * u[2];
+  out[1] = M[3] * u[0] + M[1] * u[1] + M[4] * u[2];
+  out[2] = M[5] * u[0] + M[4] * u[1] + M[2] * u[2];
+}
+
 /* Adds the pair terms of the neighbours j (of side b) to particles i in r (of side a).
  * wa, wb (0 or 1) say whose stress enters S_ij; ea is side a's share of the viscous heat. The
  * symmetric coupling uses wa = wb = 1, ea = 1/2. The traction coupling of a PD solid (whose own
@@ -197,6 +256,8 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
       const ej_real lk = log(rmax / rmin);
       psi = lk > 1e-9 ? 1.0 / lk : INFINITY;
     }
+    /* a side with sph's shape tensor: G_ij (cpl_shape_half); else bitwise the kernel form */
+    const int shp = P->shape && (A->Minv || B->Minv) && !sph_exact;
     for (ej_off k = ab->off[i]; k < ab->off[i + 1]; ++k) {
       const ej_idx j = ab->idx[k];
       const ej_real dx[3] = {B->x[3 * j] - A->x[3 * i], B->x[3 * j + 1] - A->x[3 * i + 1],
@@ -220,29 +281,54 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
       ej_real sj[6];
       cpl_stress(B, j, sj);
       const ej_real irho2_j = 1.0 / (B->rho[j] * B->rho[j]), mj = B->m[j];
-      ej_real S[9], Si[9];
-      {
-        /* standard: sigma_i/rho_i^2 + sigma_j/rho_j^2; volume: (sigma_i + sigma_j)/(rho_i rho_j) */
-        const ej_real wi = wa * (P->form == CPL_FORM_STANDARD ? irho2_i : 1.0 / (rho_i * B->rho[j]));
-        const ej_real wj = wb * (P->form == CPL_FORM_STANDARD ? irho2_j : 1.0 / (rho_i * B->rho[j]));
-        ej_real t[6];
+      /* standard: sigma_i/rho_i^2 + sigma_j/rho_j^2; volume: (sigma_i + sigma_j)/(rho_i rho_j) */
+      const ej_real wi = wa * (P->form == CPL_FORM_STANDARD ? irho2_i : 1.0 / (rho_i * B->rho[j]));
+      const ej_real wj = wb * (P->form == CPL_FORM_STANDARD ? irho2_j : 1.0 / (rho_i * B->rho[j]));
+      ej_real vg;
+      if (shp) {
+        /* G_ij = (half_i + half_j)/2 in the stress, pdV and continuity terms (sph's symmetric form,
+         * antisymmetric in i, j); the viscosity keeps the kernel gradient (sph's default
+         * shape_viscosity: kernel, a radial pair force) */
+        const ej_real w = sigma_k * sph_inv_pow(ih, dim) * sph_kernel_f(P->kernel, dim, rr * ih);
+        const ej_real u[3] = {w * dx[0], w * dx[1], w * dx[2]};
+        ej_real hi[3], hj[3], G[3];
+        cpl_shape_half(A, i, u, g, hi);
+        cpl_shape_half(B, j, u, g, hj);
+        for (int q = 0; q < 3; ++q) G[q] = 0.5 * (hi[q] + hj[q]);
+        ej_real t[6], T[9], Ti[9], TG[3], TiG[3];
         for (int q = 0; q < 6; ++q) t[q] = si[q] * wi + sj[q] * wj;
-        t[0] -= pi, t[1] -= pi, t[2] -= pi;
-        ej_s6_to_m3(S, t);
+        ej_s6_to_m3(T, t);
         for (int q = 0; q < 6; ++q) t[q] = si[q] * wi;
-        t[0] -= ea * pi, t[1] -= ea * pi, t[2] -= ea * pi;
-        ej_s6_to_m3(Si, t);
-      }
-      ej_real Sg[3], Sig[3];
-      ej_m3_apply(Sg, S, g);
-      ej_m3_apply(Sig, Si, g);
-      for (int q = 0; q < 3; ++q) acc[q] += mj * Sg[q];
-      /* (v_i - v_j) = -dv */
-      if (sph_exact) {
-        const ej_real xj0 = B->x[3 * j];
-        de += mj * ((B->v[3 * j] * xj0 * xj0 * inv_xi2 - A->v[3 * i]) * Sig[0]); /* -u_ij (1D) */
+        ej_s6_to_m3(Ti, t);
+        ej_m3_apply(TG, T, G);
+        ej_m3_apply(TiG, Ti, G);
+        for (int q = 0; q < 3; ++q) acc[q] += mj * (TG[q] - pi * g[q]);
+        const ej_real dvg = dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2];
+        de += mj * (dv[0] * TiG[0] + dv[1] * TiG[1] + dv[2] * TiG[2] - ea * pi * dvg);
+        vg = dv[0] * G[0] + dv[1] * G[1] + dv[2] * G[2];
       } else {
-        de += mj * (dv[0] * Sig[0] + dv[1] * Sig[1] + dv[2] * Sig[2]);
+        ej_real S[9], Si[9];
+        {
+          ej_real t[6];
+          for (int q = 0; q < 6; ++q) t[q] = si[q] * wi + sj[q] * wj;
+          t[0] -= pi, t[1] -= pi, t[2] -= pi;
+          ej_s6_to_m3(S, t);
+          for (int q = 0; q < 6; ++q) t[q] = si[q] * wi;
+          t[0] -= ea * pi, t[1] -= ea * pi, t[2] -= ea * pi;
+          ej_s6_to_m3(Si, t);
+        }
+        ej_real Sg[3], Sig[3];
+        ej_m3_apply(Sg, S, g);
+        ej_m3_apply(Sig, Si, g);
+        for (int q = 0; q < 3; ++q) acc[q] += mj * Sg[q];
+        /* (v_i - v_j) = -dv */
+        if (sph_exact) {
+          const ej_real xj0 = B->x[3 * j];
+          de += mj * ((B->v[3 * j] * xj0 * xj0 * inv_xi2 - A->v[3 * i]) * Sig[0]); /* -u_ij (1D) */
+        } else {
+          de += mj * (dv[0] * Sig[0] + dv[1] * Sig[1] + dv[2] * Sig[2]);
+        }
+        vg = dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2];
       }
       if (cond) {
         /* the pair of sph_cond_pair (a line-mass side weighs it by rbar^2/r_i^2: energy to round-off) */
@@ -250,7 +336,6 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
         dq += sph_cond_pair(mj, p_i, p_j, rho_i, B->rho[j], A->e[i], B->e[j], A->line, ai_abs, fabs(B->x[3 * j]),
                             inv_ai2, dwdr);
       }
-      const ej_real vg = dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2];
       if (psi < 0) drho -= (mj / B->rho[j]) * vg, dnorm += (mj / B->rho[j]) * rr * dwdr;
       else if (isinf(psi)) drho_m -= mj * vg;
       else drho_m -= (rho_i + psi * B->rho[j]) / ((1 + psi) * B->rho[j]) * mj * vg; /* 001 Eq 4 */

@@ -277,6 +277,9 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
          .doc = "Inverse current shape tensor M_i^-1, M_i = sum_j V_j w_ij x_ij (x) x_ij (zero on fallback)."},
         {.name = "grad_fallback", .kind = EJ_INT, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_OUTPUT, .unit = "1",
          .doc = "1 where the shape tensor was ill-conditioned this step and the kernel gradient was used."},
+        {.name = "M_cpl", .kind = EJ_SYM6, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "m^2",
+         .doc = "The coupled sets' share of M_i, sum_j V_j w_ij x_ij (x) x_ij over their neighbours, added by an "
+                "interaction's pre-pass (continuum) and consumed (zeroed) by the shape pass."},
     };
     for (size_t k = 0; k < sizeof shape / sizeof shape[0]; ++k) EJ_TRY(ej_decl_field(d, &shape[k]));
   }
@@ -764,8 +767,8 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
                                                      const ej_real *restrict m, const ej_real *restrict rho,
                                                      const ej_real *restrict h, const ej_off *restrict off,
                                                      const ej_idx *restrict idx, ej_real rcond_min,
-                                                     const ej_real *restrict vol, ej_real *restrict Minv,
-                                                     int32_t *restrict fb, ej_idx *restrict kept,
+                                                     const ej_real *restrict vol, ej_real *restrict Mc,
+                                                     ej_real *restrict Minv, int32_t *restrict fb, ej_idx *restrict kept,
                                                      int32_t *restrict kept_n, ej_range rg)
 {
   const ej_real sigma = sph_kernel_sigma(kernel, dim);
@@ -821,6 +824,13 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
     if (kept_n) kept_n[i] = nkept;
     ej_real b[6] = {b0, dim > 1 ? b1 : 0.0, dim > 2 ? b2 : 0.0, dim > 1 ? b3 : 0.0, dim > 2 ? b4 : 0.0,
                     dim > 2 ? b5 : 0.0};
+    if (Mc) { /* the coupled sets' share (README "Shape tensor across an interface"), consumed */
+      ej_real *restrict mc = Mc + 6 * i;
+      b[0] += mc[0];
+      if (dim > 1) b[1] += mc[1], b[3] += mc[3];
+      if (dim > 2) b[2] += mc[2], b[4] += mc[4], b[5] += mc[5];
+      for (int c = 0; c < 6; ++c) mc[c] = 0.0;
+    }
     for (int c = 0; c < 6; ++c) b[c] *= inv_hi * inv_hi;
     ej_real A[9], B[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
     const ej_real pad = (b[0] + b[1] + b[2]) / dim;
@@ -858,8 +868,9 @@ static ej_err sph_shape_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr,
   const ej_real *h = ej_set_field(set, "h");
   ej_real *Minv = ej_set_field(set, "M_inv");
   int32_t *fb = ej_set_field_int(set, "grad_fallback");
-  EJ_ENSURE(x && m && rho && h && Minv && fb && nbr, EJ_ERR_INTERNAL, "set '%s': sph shape-tensor fields missing",
-            s->set_name);
+  ej_real *Mc = ej_set_field(set, "M_cpl");
+  EJ_ENSURE(x && m && rho && h && Minv && fb && Mc && nbr, EJ_ERR_INTERNAL,
+            "set '%s': sph shape-tensor fields missing", s->set_name);
   const ej_real thr = s->cfg.shape_rcond_min;
   const ej_real *vol = s->cfg.continuity == SPH_CONT_VOLUME ? ej_set_field(set, "w_cont") : NULL;
   const bool slots = s->kept && ej_set_count(set) <= s->kept_cap;
@@ -867,7 +878,7 @@ static ej_err sph_shape_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr,
   int32_t *kept_n = slots ? s->kept_n : NULL;
 #define SPH_SHAPE_CASE(k, d)                                                                            \
   case (k) * 4 + (d):                                                                                   \
-    sph_shape_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, thr, vol, Minv, fb, kept, kept_n, r);    \
+    sph_shape_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, thr, vol, Mc, Minv, fb, kept, kept_n, r); \
     break
   switch (s->cfg.kernel * 4 + s->dim) {
     SPH_FOR_EACH_KERNEL_DIM(SPH_SHAPE_CASE);
@@ -2384,7 +2395,7 @@ static int sph_pass_writes(const void *state, int pass, const char **names, int 
     return -1;
   const bool shape = cfg->gradient == SPH_GRAD_SHAPE;
   static const char *const particle[] = {"rho", "h", "p", "c", "p_rho2", "w_cont"};
-  static const char *const shape_f[] = {"M_inv", "grad_fallback"};
+  static const char *const shape_f[] = {"M_inv", "grad_fallback", "M_cpl"};
   static const char *const pairs[] = {"a", "rho_dot", "e_dot", "w_visc_dot", "mu_max"};
   static const char *const post[] = {"rho"};
   const int pair_pass = shape ? 2 : 1;
@@ -2393,7 +2404,7 @@ static int sph_pass_writes(const void *state, int pass, const char **names, int 
                          : shape && pass == 1      ? shape_f
                          : pass == pair_pass       ? pairs
                                                    : NULL;
-  const int n = pass == EJ_PASS_POST_STEP ? 1 : pass == 0 ? 6 : shape && pass == 1 ? 2 : pass == pair_pass ? 5 : -1;
+  const int n = pass == EJ_PASS_POST_STEP ? 1 : pass == 0 ? 6 : shape && pass == 1 ? 3 : pass == pair_pass ? 5 : -1;
   for (int k = 0; k < n; ++k) names[k] = l[k];
   return n;
 }
