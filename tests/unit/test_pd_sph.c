@@ -5,7 +5,9 @@
  *   at the same pressure, closed box) on every interface particle, for each form, and 1000
  *   steps of that state (the issue's criterion, 1e-8 c);
  * - decohesion: solid particles next to high-pressure fluid are marked failed and lose bonds;
- * - set checks: exactly one of the two sets must publish F. */
+ * - set checks: exactly one of the two sets must publish F;
+ * - a shape-tensor fluid's M_i includes the other set's particles (pd_sph pairwise both / fluid,
+ *   continuum) and not with gradient: kernel. */
 #include <check.h>
 #include <math.h>
 #include <stdarg.h>
@@ -462,6 +464,75 @@ START_TEST(test_renormalize_interfaces)
 }
 END_TEST
 
+/* The shape tensor of a fluid next to another set (continuum README "Shape tensor across an
+ * interface"): water run by sph with gradient: shape_tensor next to a tlpd rock (pd_sph, pairwise,
+ * pair_stress both) or next to more water with the kernel gradient (continuum), both at the same
+ * 1 mm lattice, at rest, one step. With the couplings' default gradient: auto the other set's
+ * particles enter M_i, so a water particle at the interface has the interior particle's M_i^-1 (one
+ * lattice across both sets); with gradient: kernel its M_i is one-sided (M^-1_xx about twice). */
+static const char scene_shape_share[] =
+    "ejecta: 1\ndimension: 2\ntime: {end: 1.0, dt: 1e-9, max_steps: 1}\noutput: {file: out.h5}\n"
+    "materials:\n  rock: {model: elastic, rho0: 2000, E: 1e9, nu: 0.25}\n"
+    "  water: {rho0: 1000, eos: {model: polynomial, rho0: 1000, C1: 2.2e9}}\n"
+    "sets:\n"
+    "  rock: {%s, shape: {box: {min: [0, 0], max: [0.02, 0.04]}}, spacing: 0.001}\n"
+    "  water: {method: sph, material: water, gradient: shape_tensor,\n"
+    "          shape: {box: {min: [-0.02, 0], max: [0, 0.04]}}, spacing: 0.001}\n"
+    "interactions:\n  - {model: %s, sets: [water, rock]%s}\n";
+
+/* max over the water particles within 3.5 mm of x = 0 (15 mm < y < 25 mm) of
+ * |M_inv_i - M_inv_interior| / |M_inv_interior| (largest component), the interior particle being
+ * the one nearest (-10.5 mm, 20.5 mm) */
+static double shape_share_err(const char *rock, const char *model, const char *extra)
+{
+  prun c;
+  ck_assert_int_eq(prun_try(&c, scene_shape_share, rock, model, extra), EJ_OK);
+  vrun_run(&c.r);
+  ej_set *w = prun_set(&c, "water");
+  const ej_real *x = ej_set_field(w, "x"), *M = ej_set_field(w, "M_inv");
+  ck_assert_ptr_nonnull(M);
+  ej_idx ref = -1;
+  double d2 = INFINITY;
+  for (ej_idx i = 0; i < w->n; ++i) {
+    const double dx = x[3 * i] + 0.0105, dy = x[3 * i + 1] - 0.0205;
+    if (dx * dx + dy * dy < d2) d2 = dx * dx + dy * dy, ref = i;
+  }
+  double scale = 0;
+  for (int k = 0; k < 6; ++k) scale = fmax(scale, fabs(M[6 * ref + k]));
+  double err = 0;
+  int n = 0;
+  for (ej_idx i = 0; i < w->n; ++i) {
+    if (x[3 * i] < -0.0035 || x[3 * i + 1] < 0.015 || x[3 * i + 1] > 0.025) continue;
+    for (int k = 0; k < 6; ++k) err = fmax(err, fabs(M[6 * i + k] - M[6 * ref + k]) / scale);
+    ++n;
+  }
+  ck_assert_int_gt(n, 0);
+  prun_free(&c);
+  return err;
+}
+
+START_TEST(test_shape_tensor_share)
+{
+  const char *tl = "method: tlpd, material: rock", *wk = "method: sph, material: water";
+  const double pd = shape_share_err(tl, "pd_sph", ", pair_stress: both");
+  const double pdf = shape_share_err(tl, "pd_sph", ", pair_stress: fluid");
+  const double pdk = shape_share_err(tl, "pd_sph", ", pair_stress: both, gradient: kernel");
+  const double pdo = shape_share_err(tl, "pd_sph", ""); /* owned: not extended */
+  const double co = shape_share_err(wk, "continuum", "");
+  const double cok = shape_share_err(wk, "continuum", ", gradient: kernel");
+  fprintf(stderr,
+          "shape tensor next to another set, max |M_inv - M_inv interior| / |M_inv| within 3.5 mm: pd_sph both %.3e, "
+          "fluid %.3e, both with gradient: kernel %.3e, owned %.3e; continuum %.3e, with gradient: kernel %.3e\n",
+          pd, pdf, pdk, pdo, co, cok);
+  ck_assert_double_lt(pd, 1e-10);
+  ck_assert_double_lt(pdf, 1e-10);
+  ck_assert_double_lt(co, 1e-10);
+  ck_assert_double_gt(pdk, 0.3);
+  ck_assert_double_gt(pdo, 0.3);
+  ck_assert_double_gt(cok, 0.3);
+}
+END_TEST
+
 static Suite *pd_sph_suite(void)
 {
   Suite *s = suite_create("pd_sph");
@@ -475,6 +546,7 @@ static Suite *pd_sph_suite(void)
   tcase_add_test(tc, test_uniform_stress_at_rest);
   tcase_add_test(tc, test_continuity_dilatation);
   tcase_add_test(tc, test_renormalize_interfaces);
+  tcase_add_test(tc, test_shape_tensor_share);
   suite_add_tcase(s, tc);
   return s;
 }

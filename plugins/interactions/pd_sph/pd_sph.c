@@ -69,6 +69,7 @@ typedef struct pd_sph_config {
   ej_real horizon;
   int influence;
   ej_real decohesion_pressure, decohesion_strain, decohesion_reach;
+  int gradient;
 } pd_sph_config;
 
 static const char *const pd_sph_forms[] = {"pairwise", "paper", "consistent", NULL};
@@ -78,6 +79,7 @@ static const char *const pd_sph_pair_weights[] = {"bond", "kernel", NULL};
 enum { PDSPH_PW_BOND = 0, PDSPH_PW_KERNEL = 1 };
 static const char *const pd_sph_kernels[] = {"cubic_spline", "wendland_c2", NULL};
 static const char *const pd_sph_influences[] = {"constant", "conical2", NULL};
+static const char *const pd_sph_gradients[] = {"auto", "kernel", NULL};
 
 static const ej_param pd_sph_params[] = {
     EJ_PARAM_ENUM(pd_sph_config, form, pd_sph_forms, "pairwise",
@@ -124,6 +126,12 @@ static const ej_param pd_sph_params[] = {
                   "ejecta decohesion: contact distance, in the solid particle's initial spacings: only fluid "
                   "particles closer than this act on it (its interface layer); 0: the pair's kernel support 2 hbar, "
                   "which grows with the fluid's h (the rule before issue 8's third pass, for comparison)."),
+    EJ_PARAM_ENUM(pd_sph_config, gradient, pd_sph_gradients, "auto",
+                  "form pairwise with pair_stress both or fluid: auto gives a fluid set run by sph with gradient: "
+                  "shape_tensor the solid's neighbours in its shape tensor M_i and its half M_i^-1 w x_ij of the pair "
+                  "gradient (the solid's half is the kernel gradient), as continuum does (continuum README \"Shape "
+                  "tensor across an interface\"); kernel: the kernel gradient on every pair. Other forms: the kernel "
+                  "gradient."),
     {0}};
 
 typedef struct pd_sph_state {
@@ -151,7 +159,10 @@ static ej_err pd_sph_create(const void *config, ej_set *a, ej_set *b, void **sta
   pd_sph_state *s = ej_calloc(1, sizeof *s);
   EJ_ENSURE(s, EJ_ERR_MEM, "out of memory");
   s->cfg = *c;
-  s->P = (cpl_params){.kernel = c->kernel, .form = CPL_FORM_VOLUME, .alpha = c->alpha, .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor};
+  s->P = (cpl_params){.kernel = c->kernel, .form = CPL_FORM_VOLUME, .alpha = c->alpha, .beta = c->beta, .eta = c->eta,
+                      .h_factor = c->h_factor,
+                      .shape = c->gradient == 0 && c->form == PDSPH_PAIRWISE &&
+                               (c->pair_stress == PDSPH_PS_BOTH || c->pair_stress == PDSPH_PS_FLUID)};
   s->solid = fa ? a : b;
   const ej_err rc = cpl_dt_init(&s->dt, a, b);
   if (rc != EJ_OK) {
@@ -552,6 +563,10 @@ static ej_err pd_sph_compute(void *state, ej_set *a, ej_set *b, const ej_nbr *ab
   EJ_TRY(cpl_bind(&A, a, "pd_sph", s->cfg.h_factor));
   EJ_TRY(cpl_bind(&B, b, "pd_sph", s->cfg.h_factor));
   const bool a_is_solid = a == s->solid;
+  if (pass < 0) { /* the pre-pass (before sph's shape pass): the solid's share of the fluid's M_i */
+    if (s->P.shape && !a_is_solid) cpl_shape_share(&s->P, &A, &B, ab, r);
+    return EJ_OK;
+  }
   /* pair_weight bond: pass 0 computes the fluid's alpha, pass 1 the pair terms; everything else in pass 0 */
   const bool bond = s->cfg.form == PDSPH_PAIRWISE && s->cfg.pair_stress == PDSPH_PS_OWNED &&
                     s->cfg.pair_weight == PDSPH_PW_BOND && !A.line && !B.line;
@@ -631,6 +646,8 @@ static const ej_interaction_ops pd_sph_ops = {
     .both_ways = true,
     .n_passes = 2, /* pass 1: pair_weight bond only */
     .n_sets = 2,
+    .n_pre_passes = 1, /* gradient auto: the solid's share of a shape-tensor fluid's M_i */
+    .pre_pass_before = "M_inv",
 };
 
 static ej_err pd_sph_register(ej_registry *reg) { return ej_register_interaction(reg, &pd_sph_ops); }
