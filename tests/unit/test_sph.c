@@ -222,7 +222,7 @@ START_TEST(test_params_and_ops)
   for (int k = 0; k < np; ++k) ck_assert_str_eq(f.mops->params[k].name, names[k]);
   ck_assert_ptr_null(f.mops->params[np].name);
   ck_assert(*(int *)((char *)f.mcfg + find_param(f.mops->params, "gradient")->offset) == 0); /* kernel */
-  ck_assert(*(int *)((char *)f.mcfg + find_param(f.mops->params, "continuity")->offset) == 0); /* volume */
+  ck_assert(*(int *)((char *)f.mcfg + find_param(f.mops->params, "continuity")->offset) == 2); /* auto */
   const ej_param *hf = find_param(f.mops->params, "h_factor");
   ck_assert(*(ej_real *)((char *)f.mcfg + hf->offset) == 0.0); /* automatic per dimension */
   ck_assert(hf->min == 0.0 && hf->max == 3.0);

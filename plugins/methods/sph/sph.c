@@ -52,8 +52,8 @@ typedef struct sph_config {
 } sph_config;
 
 static const char *const sph_kernel_names[] = {"cubic_spline", "wendland_c2", NULL};
-enum { SPH_CONT_VOLUME = 0, SPH_CONT_MASS = 1 };
-static const char *const sph_continuity_names[] = {"volume", "mass", NULL};
+enum { SPH_CONT_VOLUME = 0, SPH_CONT_MASS = 1, SPH_CONT_AUTO = 2, SPH_CONT_NUMBER = 3 };
+static const char *const sph_continuity_names[] = {"volume", "mass", "auto", "number", NULL};
 enum { SPH_DENS_CONTINUITY = 0, SPH_DENS_SUMMATION = 1 };
 static const char *const sph_density_names[] = {"continuity", "summation", NULL};
 enum { SPH_GRAD_KERNEL = 0, SPH_GRAD_SHAPE = 1 };
@@ -78,11 +78,13 @@ static const char *const sph_spherical_energy_names[] = {"local", "pair", NULL};
 static const ej_param sph_params[] = {
     EJ_PARAM_ENUM(sph_config, kernel, sph_kernel_names, "cubic_spline",
                   "Smoothing kernel, support radius 2h: M4 cubic spline or Wendland C2."),
-    EJ_PARAM_ENUM(sph_config, continuity, sph_continuity_names, "volume",
-                  "Discrete continuity equation: volume, drho_i/dt = rho_i sum_j (m_j/rho_j) v_ij.grad W "
-                  "(never reaches rho <= 0 in expansion to vacuum); mass, drho_i/dt = sum_j m_j v_ij.grad W "
-                  "(000 Eq 22 as printed: less dissipative in the Sedov test, but a particle can reach the "
-                  "density floor, where p/rho^2 collapses the time step)."),
+    EJ_PARAM_ENUM(sph_config, continuity, sph_continuity_names, "auto",
+                  "Discrete continuity equation (gas): mass, drho_i/dt = sum_j m_j v_ij.grad W (000 Eq 22; "
+                  "renormalised, rho_i times the unweighted divergence: the time derivative of the summation "
+                  "density, so shock jumps are right: validation/strong_shock); volume, drho_i/dt = rho_i sum_j "
+                  "(m_j/rho_j) v_ij.grad W (the neighbour volumes weigh the divergence: across a strong shock the "
+                  "plateau density is 18 % high at pressure ratio 1e3, README \"Continuity form\"); auto (default): "
+                  "mass with the kernel gradient, volume with the shape tensor (its compatible continuity)."),
     EJ_PARAM_ENUM(sph_config, density, sph_density_names, "continuity",
                   "Density: continuity, evolved by the continuity equation (form set by continuity); "
                   "summation, rho_i = sum_j m_j W(x_ij, hbar) + m_i W(0, h_i) each step with h of the previous "
@@ -362,6 +364,14 @@ static ej_err sph_create(const void *config, ej_set *set, const ej_model *model,
   sph_state *s = ej_calloc(1, sizeof *s);
   EJ_ENSURE(s, EJ_ERR_MEM, "sph: out of memory");
   s->cfg = *cfg;
+  /* continuity: auto (README "Continuity form"): the number form with the renormalised kernel
+   * gradient in planar geometry, else the volume form (the shape tensor's shape_continuity symmetric
+   * is written for it; geometry: spherical was validated with it) */
+  if (s->cfg.continuity == SPH_CONT_AUTO)
+    s->cfg.continuity = s->cfg.gradient == SPH_GRAD_KERNEL && s->cfg.renormalize && !s->cfg.correction &&
+                                s->cfg.geometry == SPH_GEOM_PLANAR
+                            ? SPH_CONT_NUMBER
+                            : SPH_CONT_VOLUME;
   /* The discrete gradient sum sum_j V_j x_ji (x) grad W equals I only approximately on a
    * lattice; its bias scales every pressure force and does not shrink with resolution at
    * fixed h/dx. Cubic spline: exact at integer h/dx in 1D (B-spline partition of unity),
@@ -515,7 +525,7 @@ static ej_err sph_particle_pass(const sph_state *s, ej_set *set, ej_range r)
   }
   for (ej_idx i = r.begin; i < r.end; ++i) {
     p_rho2[i] = p[i] / (rho[i] * rho[i]);
-    w_cont[i] = cfg->continuity == SPH_CONT_VOLUME ? m[i] / rho[i] : m[i];
+    w_cont[i] = cfg->continuity == SPH_CONT_VOLUME ? m[i] / rho[i] : cfg->continuity == SPH_CONT_NUMBER ? 1.0 : m[i];
   }
   return EJ_OK;
 }
@@ -594,6 +604,7 @@ typedef struct sph_pair_args {
   const ej_real *x, *v, *m, *rho, *p_rho2, *c, *h, *w_cont, *L, *M;
   const int32_t *fb;
   bool volume_form, renormalize, cont_rate;
+  bool unit_w; /* continuity: number: every neighbour weighs 1 in the continuity sums (volume_form is set) */
   bool visc_kernel, energy_own; /* shape_form symmetric: shape_viscosity kernel, shape_energy own */
   bool cont_sym;                /* shape_form symmetric: shape_continuity symmetric */
   const ej_idx *kept;    /* shape tensor: the shape pass's kept neighbours (sph_state.kept), or NULL */
@@ -908,8 +919,14 @@ static inline SPH_ALWAYS_INLINE void sph_row_store(const sph_pair_args *A, ej_id
   A->a[3 * i] += ax;
   if (dim > 1) A->a[3 * i + 1] += ay;
   if (dim > 2) A->a[3 * i + 2] += az;
-  if (A->ren_norm) { /* renormalize_interfaces: the factor over every set's neighbours, in finish */
-    A->ren_div[i] = drho, A->ren_norm[i] = norm;
+  if (A->unit_w) { /* continuity: number: the unit weights as the particle's own volume m_i/rho_i, so
+                     * that norm is about -dim (the clamp's scale) and the sums are in volume units */
+    const ej_real u = A->m[i] / rhoi;
+    drho *= u, norm *= u;
+  }
+  if (A->ren_norm) { /* renormalize_interfaces: the factor over every set's neighbours, in finish; the
+                      * sums in volume units as the couplings add theirs (the mass form's m_j as m_j/rho_i) */
+    A->ren_div[i] = volume_form ? drho : drho / rhoi, A->ren_norm[i] = volume_form ? norm : norm / rhoi;
   } else {
     if (ren && norm < 0.0) drho *= sph_ren_clamp(-(ej_real)dim / (volume_form ? norm : norm / rhoi));
     if (A->cont_rate) A->rho_dot[i] += volume_form ? rhoi * drho : drho;
@@ -1092,6 +1109,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
    * vectorised loop carries neither the unused branch nor its selects (the same expressions) */
   const bool sym = shape >= 2;
   const bool volume_form = shape == 3 || A->volume_form, renormalize = A->renormalize;
+  const bool unit_w = shape == 0 && A->unit_w; /* continuity: number (kernel gradient only) */
   const ej_off *restrict off = A->off;
   const ej_idx *restrict idx = A->idx;
   const ej_real alpha = A->alpha, beta = A->beta, eta2 = A->eta2;
@@ -1222,7 +1240,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
       const ej_real P = r * hbar, Q = d1 * rho_sum, PQ = P * Q, D = 1.0 / (PQ * rhoj), Dj = D * rhoj;
       const ej_real PD = P * Dj, QD = Q * Dj;
       const ej_real inv_h = r * QD, inv_r = hbar * QD, inv_d1 = rho_sum * PD, inv_rho_sum = d1 * PD;
-      const ej_real wj = volume_form ? bm[q] * (PQ * D) : bm[q];
+      const ej_real wj = unit_w ? 1.0 : volume_form ? bm[q] * (PQ * D) : bm[q];
       const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) * inv_r;
       const ej_real vx = vi0 - bvx[q];
       const ej_real vy = dim > 1 ? vi1 - bvy[q] : 0.0;
@@ -1397,7 +1415,8 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
       .rho = ej_set_field(set, "rho"), .p_rho2 = ej_set_field(set, "p_rho2"), .c = ej_set_field(set, "c"),
       .h = ej_set_field(set, "h"), .w_cont = ej_set_field(set, "w_cont"), .L = ej_set_field(set, "L_corr"),
       .M = ej_set_field(set, "M_inv"), .fb = ej_set_field_int(set, "grad_fallback"),
-      .volume_form = s->cfg.continuity == SPH_CONT_VOLUME, .renormalize = s->cfg.renormalize,
+      .volume_form = s->cfg.continuity != SPH_CONT_MASS, .unit_w = s->cfg.continuity == SPH_CONT_NUMBER,
+      .renormalize = s->cfg.renormalize,
       .cont_rate = s->cfg.density == SPH_DENS_CONTINUITY, .a = ej_set_field(set, "a"), .rho_dot = ej_set_field(set, "rho_dot"),
       .e_dot = ej_set_field(set, "e_dot"), .w_dot = ej_set_field(set, "w_visc_dot"),
       .mu_max = ej_set_field(set, "mu_max"), .off = nbr->off, .idx = nbr->idx,
@@ -2348,13 +2367,18 @@ static ej_err sph_finish(void *state, ej_set *set, ej_range r)
 static ej_err sph_check_config(const void *config, ej_diag *diag)
 {
   const sph_config *cfg = config;
+  /* continuity: number divides the unweighted divergence by the unweighted renormalisation sum:
+   * without that sum (renormalize: false, or the correction, which skips it) it has no units */
+  if (cfg->continuity == SPH_CONT_NUMBER && (!cfg->renormalize || cfg->correction || cfg->gradient != SPH_GRAD_KERNEL))
+    return ej_diag_error(diag, "continuity",
+                         "continuity: number needs renormalize: true, the kernel gradient and no correction");
   if (cfg->renormalize_interfaces &&
       (!cfg->renormalize || cfg->correction || cfg->gradient != SPH_GRAD_KERNEL ||
-       cfg->density != SPH_DENS_CONTINUITY || cfg->continuity != SPH_CONT_VOLUME || cfg->strength ||
+       cfg->density != SPH_DENS_CONTINUITY || cfg->strength ||
        cfg->geometry != SPH_GEOM_PLANAR))
     return ej_diag_error(diag, "renormalize_interfaces",
                          "renormalize_interfaces needs renormalize: true with the plain kernel gradient, "
-                         "density: continuity, continuity: volume, strength: false and geometry: planar");
+                         "density: continuity, strength: false and geometry: planar");
   /* geometry: spherical supports the kernel-gradient gas path (its dimension: 1 is checked in create,
    * which sees the dimension) */
   if (cfg->geometry == SPH_GEOM_SPHERICAL) {
