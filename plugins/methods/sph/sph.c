@@ -1110,6 +1110,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
   const bool sym = shape >= 2;
   const bool volume_form = shape == 3 || A->volume_form, renormalize = A->renormalize;
   const bool unit_w = shape == 0 && A->unit_w; /* continuity: number (kernel gradient only) */
+  const ej_real w_one = unit_w ? 1.0 : 0.0, w_mul = unit_w ? 0.0 : 1.0;
   const ej_off *restrict off = A->off;
   const ej_idx *restrict idx = A->idx;
   const ej_real alpha = A->alpha, beta = A->beta, eta2 = A->eta2;
@@ -1240,7 +1241,11 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
       const ej_real P = r * hbar, Q = d1 * rho_sum, PQ = P * Q, D = 1.0 / (PQ * rhoj), Dj = D * rhoj;
       const ej_real PD = P * Dj, QD = Q * Dj;
       const ej_real inv_h = r * QD, inv_r = hbar * QD, inv_d1 = rho_sum * PD, inv_rho_sum = d1 * PD;
-      const ej_real wj = unit_w ? 1.0 : volume_form ? bm[q] * (PQ * D) : bm[q];
+      /* continuity: number weighs every neighbour 1: w_one = 1, w_mul = 0 (exact, wv finite); else
+       * w_one = 0, w_mul = 1 (wv itself, bitwise). Arithmetic rather than a second select: a nested
+       * select here kept the loop from vectorising (the kernel pair pass ran 2.4x slower). */
+      const ej_real wv = volume_form ? bm[q] * (PQ * D) : bm[q];
+      const ej_real wj = wv * w_mul + w_one;
       const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) * inv_r;
       const ej_real vx = vi0 - bvx[q];
       const ej_real vy = dim > 1 ? vi1 - bvy[q] : 0.0;
