@@ -455,6 +455,15 @@ START_TEST(test_renormalize_interfaces)
   ck_assert_int_eq(prun_try(&c, scene_dilate_ren, oil, "0.0013", on, "continuum, continuity: blend"), EJ_ERR_INPUT);
   prun_free(&c);
   ej_error_clear();
+  /* continuity: number (the default for this set) has no units without the renormalisation */
+  ck_assert_int_eq(prun_try(&c,
+                            "ejecta: 1\ndimension: 1\ntime: {end: 1e-4}\noutput: {file: out.h5}\n"
+                            "materials:\n  w: {rho0: 1000, eos: {model: polynomial, rho0: 1000, C1: 2.2e9}}\n"
+                            "sets:\n  a: {method: sph, material: w, continuity: number, renormalize: false,\n"
+                            "      shape: {box: {min: [0], max: [1]}}, spacing: 0.1}\n"),
+                   EJ_ERR_INPUT);
+  prun_free(&c);
+  ej_error_clear();
   /* and the method refuses it where its own divergence is not the plain renormalised kernel sum */
   ck_assert_int_eq(prun_try(&c, scene_dilate_ren, oil, "0.0013", ", renormalize_interfaces: true, gradient: shape_tensor",
                             "continuum"),

@@ -79,12 +79,14 @@ static const ej_param sph_params[] = {
     EJ_PARAM_ENUM(sph_config, kernel, sph_kernel_names, "cubic_spline",
                   "Smoothing kernel, support radius 2h: M4 cubic spline or Wendland C2."),
     EJ_PARAM_ENUM(sph_config, continuity, sph_continuity_names, "auto",
-                  "Discrete continuity equation (gas): mass, drho_i/dt = sum_j m_j v_ij.grad W (000 Eq 22; "
-                  "renormalised, rho_i times the unweighted divergence: the time derivative of the summation "
-                  "density, so shock jumps are right: validation/strong_shock); volume, drho_i/dt = rho_i sum_j "
-                  "(m_j/rho_j) v_ij.grad W (the neighbour volumes weigh the divergence: across a strong shock the "
-                  "plateau density is 18 % high at pressure ratio 1e3, README \"Continuity form\"); auto (default): "
-                  "mass with the kernel gradient, volume with the shape tensor (its compatible continuity)."),
+                  "Discrete continuity equation (gas; README \"Continuity form\"): mass, drho_i/dt = sum_j m_j "
+                  "v_ij.grad W (000 Eq 22: the time derivative of the summation density, so shock jumps are right, "
+                  "validation/strong_shock; a light particle next to heavy ones in one set is driven by them); "
+                  "volume, rho_i sum_j (m_j/rho_j) v_ij.grad W (neighbour volumes as weights: a strong shock's "
+                  "plateau comes out 18 % too dense); number, rho_i (m_i/rho_i) sum_j v_ij.grad W (every neighbour "
+                  "weighs 1: the mass form for equal masses, the volume form at an equal-spacing contact; needs "
+                  "renormalize: true); auto (default): number with the renormalised kernel gradient in planar "
+                  "geometry, else volume."),
     EJ_PARAM_ENUM(sph_config, density, sph_density_names, "continuity",
                   "Density: continuity, evolved by the continuity equation (form set by continuity); "
                   "summation, rho_i = sum_j m_j W(x_ij, hbar) + m_i W(0, h_i) each step with h of the previous "
