@@ -3,7 +3,9 @@
  *   interface, stay at rest;
  * - Sod split in two sets (left and right states in different sets coupled by `continuum`)
  *   reproduces the single-set SPH solution and converges to the exact one;
- * - momentum: a free, colliding two-set system conserves total momentum to round-off. */
+ * - momentum: a free, colliding two-set system conserves total momentum to round-off;
+ * - shape tensor: a shape-tensor gas cut into two coupled sets is the one-set run to round-off
+ *   (the other set's neighbours in M_i, sph's G_ij on the interface pairs). */
 #include <check.h>
 #include <stdarg.h>
 #include <hdf5.h>

@@ -1,7 +1,9 @@
 /* Interaction `continuum`: generic coupling of two continuum particle sets of any methods
  * (SPH–SPH of different materials, UL-PD–TL-PD, SPH–TL-PD, RKPM...) through the pairwise
  * SPH stress form of continuum_pair.h. Both ways, so each pair force is applied with opposite
- * signs to the two particles: momentum and energy are conserved to round-off. */
+ * signs to the two particles: momentum and energy are conserved to round-off. A set run by sph with
+ * the shape tensor gets the other set's neighbours in its M_i (a pre-pass before sph's shape pass,
+ * core ABI 1.7 pre_pass_before) and sph's G_ij on the interface pairs (gradient: auto; README). */
 #include <math.h>
 #include <string.h>
 
