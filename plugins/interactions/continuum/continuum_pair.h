@@ -286,9 +286,9 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
       const ej_real wj = wb * (P->form == CPL_FORM_STANDARD ? irho2_j : 1.0 / (rho_i * B->rho[j]));
       ej_real vg;
       if (shp) {
-        /* G_ij = (half_i + half_j)/2 in the stress, pdV and continuity terms (sph's symmetric form,
-         * antisymmetric in i, j); the viscosity keeps the kernel gradient (sph's default
-         * shape_viscosity: kernel, a radial pair force) */
+        /* G_ij = (half_i + half_j)/2 in the stress and pdV terms (sph's symmetric form, antisymmetric
+         * in i, j); the viscosity keeps the kernel gradient (sph's default shape_viscosity: kernel,
+         * a radial pair force) */
         const ej_real w = sigma_k * sph_inv_pow(ih, dim) * sph_kernel_f(P->kernel, dim, rr * ih);
         const ej_real u[3] = {w * dx[0], w * dx[1], w * dx[2]};
         ej_real hi[3], hj[3], G[3];
@@ -305,7 +305,10 @@ static inline void cpl_gather_wc(const cpl_params *P, const cpl_side *A, const c
         for (int q = 0; q < 3; ++q) acc[q] += mj * (TG[q] - pi * g[q]);
         const ej_real dvg = dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2];
         de += mj * (dv[0] * TiG[0] + dv[1] * TiG[1] + dv[2] * TiG[2] - ea * pi * dvg);
-        vg = dv[0] * G[0] + dv[1] * G[1] + dv[2] * G[2];
+        /* continuity (row i only, no conservation at stake): G_ij on a shape-tensor side (sph's
+         * shape_continuity symmetric); the kernel gradient on a side without it, so that its
+         * divergence and its renormalisation sums (renormalize_interfaces) use the same weights */
+        vg = A->Minv ? dv[0] * G[0] + dv[1] * G[1] + dv[2] * G[2] : dvg;
       } else {
         ej_real S[9], Si[9];
         {
