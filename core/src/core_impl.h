@@ -473,6 +473,7 @@ typedef struct ej_inter {
   ej_set *a, *b;     /* b NULL for a one-set interaction */
   ej_nbrlist *list;  /* a -> b (NULL for one set) */
   ej_nbrlist *list_ba; /* b -> a when ops->both_ways */
+  int pre_slot;        /* the method pass before which the pre-passes run, -1: never (ej_inter_pre_slot) */
 } ej_inter;
 
 /* Per-step series reported by plugins, in a fixed order decided on the first step. */

@@ -1092,9 +1092,13 @@ static ej_err ej_inter_pass(ej_sim *sim, ej_inter *in, int pass)
 }
 
 /* The method pass before which an interaction's pre-passes run (plugin.h, pre_pass_before): 0, or
- * the first pass of a or b whose write mask has the named field; -1 when neither set has it. */
+ * the first pass of a or b whose write mask has the named field; -1 when neither set has it (or
+ * the interaction has no pre-passes). Fixed once the sets and the interaction exist: ej_sim_create
+ * stores it in ej_inter.pre_slot. */
 static int ej_inter_pre_slot(const ej_inter *in)
 {
+  const int npre = EJ_HAS_OP(in->ops, ej_interaction_ops, n_pre_passes) ? in->ops->n_pre_passes : 0;
+  if (npre <= 0) return -1;
   const char *name = EJ_HAS_OP(in->ops, ej_interaction_ops, pre_pass_before) ? in->ops->pre_pass_before : NULL;
   if (!name) return 0;
   int slot = -1;
@@ -1130,9 +1134,8 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
      * ej_inter_pre_slot names (pass 0 unless pre_pass_before, ABI 1.7, names a later one). */
     for (int k = 0; k < sim->n_inter; ++k) {
       ej_inter *in = &sim->inter[k];
-      const int npre = EJ_HAS_OP(in->ops, ej_interaction_ops, n_pre_passes) ? in->ops->n_pre_passes : 0;
-      if (npre <= 0 || ej_inter_pre_slot(in) != pass) continue;
-      for (int q = -npre; q < 0; ++q) EJ_TRY(ej_inter_pass(sim, in, q));
+      if (in->pre_slot != pass) continue;
+      for (int q = -in->ops->n_pre_passes; q < 0; ++q) EJ_TRY(ej_inter_pass(sim, in, q));
     }
     for (int i = 0; i < sim->n_sets; ++i) {
       ej_set *s = sim->sets[i];
@@ -1742,6 +1745,7 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
       in->a->in_interaction = in->b->in_interaction = true;
     }
     EJ_TRY_GOTO(rc, ej_located(in->ops->create(in->config, in->a, in->b, &in->state), &si->loc), out_destroy);
+    in->pre_slot = ej_inter_pre_slot(in);
   }
   const char *path = opts && opts->output ? opts->output : scene->output_file;
   sim->out_path = ej_strdup(path);

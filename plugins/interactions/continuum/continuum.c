@@ -22,7 +22,6 @@ typedef struct continuum_config {
 static const char *const continuum_kernels[] = {"cubic_spline", "wendland_c2", NULL};
 static const char *const continuum_forms[] = {"volume", "standard", NULL};
 static const char *const continuum_continuity[] = {"volume", "blend", NULL};
-static const char *const continuum_gradients[] = {"auto", "kernel", NULL};
 
 static const ej_param continuum_params[] = {
     EJ_PARAM_ENUM(continuum_config, kernel, continuum_kernels, "cubic_spline",
@@ -47,12 +46,12 @@ static const ej_param continuum_params[] = {
                   "Artificial conductivity alpha_u on the interface pairs (Price 2008): de_i/dt += sum_j m_j alpha_u "
                   "v_sig (e_i - e_j)/rhobar dW/dr, v_sig = sqrt(|p_i - p_j|/rhobar), both sets' e exchanged "
                   "antisymmetrically (energy conserved); needs e on both sets; 0 is off."),
-    EJ_PARAM_ENUM(continuum_config, gradient, continuum_gradients, "auto",
+    EJ_PARAM_ENUM(continuum_config, gradient, cpl_gradient_names, "auto",
                   "Pair gradient. auto: where a set runs sph with gradient: shape_tensor, its shape tensor M_i "
                   "includes the other set's neighbours (a pre-pass before the pass that inverts it) and the "
                   "interface pairs use sph's symmetric G_ij = (M_i^-1 + M_j^-1) w_ij x_ij / 2 (the kernel gradient "
-                  "for a side without it or on its fallback) in the stress, pdV and continuity terms, the kernel "
-                  "gradient in the viscosity; kernel: the kernel gradient grad_i W on every pair (the form before "
+                  "for a side without it or on its fallback) in the stress and pdV terms and a shape-tensor "
+                  "particle's continuity, the kernel gradient in the viscosity; kernel: the kernel gradient grad_i W on every pair (the form before "
                   "2026-11-30). Without a shape-tensor set both are the same."),
     {0}};
 
@@ -71,7 +70,7 @@ static ej_err continuum_create(const void *config, ej_set *a, ej_set *b, void **
   EJ_ENSURE(s, EJ_ERR_MEM, "out of memory");
   s->P = (cpl_params){.kernel = c->kernel, .form = c->form, .continuity = c->continuity, .alpha = c->alpha,
                       .beta = c->beta, .eta = c->eta, .h_factor = c->h_factor,
-                      .conductivity = c->conductivity, .shape = c->gradient == 0};
+                      .conductivity = c->conductivity, .shape = c->gradient == CPL_GRADIENT_AUTO};
   const ej_err rc = cpl_dt_init(&s->dt, a, b);
   if (rc != EJ_OK) {
     ej_free(s);

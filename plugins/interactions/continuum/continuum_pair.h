@@ -55,6 +55,11 @@ enum { CPL_FORM_VOLUME = 0, CPL_FORM_STANDARD = 1 };
 
 enum { CPL_CONT_VOLUME = 0, CPL_CONT_BLEND = 1 };
 
+/* The couplings' `gradient` parameter (continuum, pd_sph): auto, a shape-tensor side's half of G_ij
+ * (cpl_shape_half) and its share of M_i (cpl_shape_share); kernel, grad_i W on every pair. */
+enum { CPL_GRADIENT_AUTO = 0, CPL_GRADIENT_KERNEL = 1 };
+static const char *const cpl_gradient_names[] = {"auto", "kernel", NULL};
+
 typedef struct cpl_params {
   int kernel;
   int form;

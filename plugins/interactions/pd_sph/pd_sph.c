@@ -79,7 +79,6 @@ static const char *const pd_sph_pair_weights[] = {"bond", "kernel", NULL};
 enum { PDSPH_PW_BOND = 0, PDSPH_PW_KERNEL = 1 };
 static const char *const pd_sph_kernels[] = {"cubic_spline", "wendland_c2", NULL};
 static const char *const pd_sph_influences[] = {"constant", "conical2", NULL};
-static const char *const pd_sph_gradients[] = {"auto", "kernel", NULL};
 
 static const ej_param pd_sph_params[] = {
     EJ_PARAM_ENUM(pd_sph_config, form, pd_sph_forms, "pairwise",
@@ -126,7 +125,7 @@ static const ej_param pd_sph_params[] = {
                   "ejecta decohesion: contact distance, in the solid particle's initial spacings: only fluid "
                   "particles closer than this act on it (its interface layer); 0: the pair's kernel support 2 hbar, "
                   "which grows with the fluid's h (the rule before issue 8's third pass, for comparison)."),
-    EJ_PARAM_ENUM(pd_sph_config, gradient, pd_sph_gradients, "auto",
+    EJ_PARAM_ENUM(pd_sph_config, gradient, cpl_gradient_names, "auto",
                   "form pairwise with pair_stress both or fluid: auto gives a fluid set run by sph with gradient: "
                   "shape_tensor the solid's neighbours in its shape tensor M_i and its half M_i^-1 w x_ij of the pair "
                   "gradient (the solid's half is the kernel gradient), as continuum does (continuum README \"Shape "
@@ -161,7 +160,7 @@ static ej_err pd_sph_create(const void *config, ej_set *a, ej_set *b, void **sta
   s->cfg = *c;
   s->P = (cpl_params){.kernel = c->kernel, .form = CPL_FORM_VOLUME, .alpha = c->alpha, .beta = c->beta, .eta = c->eta,
                       .h_factor = c->h_factor,
-                      .shape = c->gradient == 0 && c->form == PDSPH_PAIRWISE &&
+                      .shape = c->gradient == CPL_GRADIENT_AUTO && c->form == PDSPH_PAIRWISE &&
                                (c->pair_stress == PDSPH_PS_BOTH || c->pair_stress == PDSPH_PS_FLUID)};
   s->solid = fa ? a : b;
   const ej_err rc = cpl_dt_init(&s->dt, a, b);
