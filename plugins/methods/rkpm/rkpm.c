@@ -48,6 +48,10 @@
 #include "ejecta/plugin.h"
 #include "ejecta/tensor.h"
 
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
+
 #if defined(__GNUC__)
 #define RK_ALWAYS_INLINE __attribute__((always_inline))
 #else
@@ -737,6 +741,44 @@ static inline RK_ALWAYS_INLINE void rk_group_moments(const int dim, const int cn
                                                     const ej_real o0[4], const ej_real o1[4], const ej_real o2[4],
                                                     const ej_real inv_l, ej_real a[RK_NM][4], ej_real (*restrict wk)[4])
 {
+#if defined(__AVX2__)
+  /* 3D with AVX2: the same operations in the same order, written with intrinsics so that the ten
+   * accumulators stay in registers (GCC 12 kept nine of them on the stack in the loop below: a
+   * load, an add and a store per accumulator and neighbour). */
+  if (dim == 3) {
+    const __m256d O0 = _mm256_loadu_pd(o0), O1 = _mm256_loadu_pd(o1), O2 = _mm256_loadu_pd(o2);
+    const __m256d IL = _mm256_set1_pd(inv_l), zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
+    const __m256d half = _mm256_set1_pd(0.5), k1 = _mm256_set1_pd(4.0 / 3.0), k2 = _mm256_set1_pd(16.0 / 3.0);
+    __m256d s0 = _mm256_loadu_pd(a[RK_M0]), s1 = _mm256_loadu_pd(a[RK_M1]), s2 = _mm256_loadu_pd(a[RK_M2]);
+    __m256d s3 = _mm256_loadu_pd(a[RK_M3]), s11 = _mm256_loadu_pd(a[RK_M11]), s22 = _mm256_loadu_pd(a[RK_M22]);
+    __m256d s33 = _mm256_loadu_pd(a[RK_M33]), s12 = _mm256_loadu_pd(a[RK_M12]), s13 = _mm256_loadu_pd(a[RK_M13]);
+    __m256d s23 = _mm256_loadu_pd(a[RK_M23]);
+    for (int t = 0; t < cnt; ++t) {
+      const int jn = lst[t];
+      const __m256d d0 = _mm256_add_pd(_mm256_set1_pd(cx[jn]), O0), d1 = _mm256_add_pd(_mm256_set1_pd(cy[jn]), O1);
+      const __m256d d2 = _mm256_add_pd(_mm256_set1_pd(cz[jn]), O2);
+      const __m256d r2 = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(d0, d0), _mm256_mul_pd(d1, d1)), _mm256_mul_pd(d2, d2));
+      const __m256d z = _mm256_mul_pd(_mm256_sqrt_pd(r2), _mm256_set1_pd(ia[jn]));
+      /* rk_phi_bl: max(x, 0) is x > 0 ? x : 0, NaN included (the second operand is returned). */
+      const __m256d tt = _mm256_max_pd(_mm256_sub_pd(one, z), zero), uu = _mm256_max_pd(_mm256_sub_pd(half, z), zero);
+      const __m256d w = _mm256_sub_pd(_mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(k1, tt), tt), tt),
+                                      _mm256_mul_pd(_mm256_mul_pd(_mm256_mul_pd(k2, uu), uu), uu));
+      const __m256d h1 = _mm256_mul_pd(d0, IL), h2 = _mm256_mul_pd(d1, IL), h3 = _mm256_mul_pd(d2, IL);
+      if (wk) _mm256_storeu_pd(wk[t], w);
+      const __m256d w1 = _mm256_mul_pd(w, h1), w2 = _mm256_mul_pd(w, h2), w3 = _mm256_mul_pd(w, h3);
+      s0 = _mm256_add_pd(s0, w), s1 = _mm256_add_pd(s1, w1), s11 = _mm256_add_pd(s11, _mm256_mul_pd(w1, h1));
+      s2 = _mm256_add_pd(s2, w2), s22 = _mm256_add_pd(s22, _mm256_mul_pd(w2, h2));
+      s12 = _mm256_add_pd(s12, _mm256_mul_pd(w1, h2));
+      s3 = _mm256_add_pd(s3, w3), s33 = _mm256_add_pd(s33, _mm256_mul_pd(w3, h3));
+      s13 = _mm256_add_pd(s13, _mm256_mul_pd(w1, h3)), s23 = _mm256_add_pd(s23, _mm256_mul_pd(w2, h3));
+    }
+    _mm256_storeu_pd(a[RK_M0], s0), _mm256_storeu_pd(a[RK_M1], s1), _mm256_storeu_pd(a[RK_M2], s2);
+    _mm256_storeu_pd(a[RK_M3], s3), _mm256_storeu_pd(a[RK_M11], s11), _mm256_storeu_pd(a[RK_M22], s22);
+    _mm256_storeu_pd(a[RK_M33], s33), _mm256_storeu_pd(a[RK_M12], s12), _mm256_storeu_pd(a[RK_M13], s13);
+    _mm256_storeu_pd(a[RK_M23], s23);
+    return;
+  }
+#endif
   for (int t = 0; t < cnt; ++t) {
     const int jn = lst[t];
     const ej_real c0 = cx[jn], c1 = cy[jn], c2 = cz[jn], inv_aj = ia[jn];
