@@ -364,10 +364,16 @@ static ej_err ulpd_summation_pass(const ulpd_state *s, ej_set *set, const ej_nbr
   return EJ_OK;
 }
 
+/* Entries of a row handled per block by the pair loops (stack scratch, no allocation). */
+#define ULPD_BLK 128
+
 /* The family sums of particle i: M (Eq 45), N = sum omega V (v_j - v_i) (x) y (Eq 46 before
  * M^-1), gamma = sum omega V (Eq 43), phi_num = sum omega V (v_j - v_i).y/|y| (Eq 44). The
  * neighbour volume uses the floored density computed here from rho_j, so that the result does
- * not depend on whether j's own pass-0 floor already ran (gather form, any thread count). */
+ * not depend on whether j's own pass-0 floor already ran (gather form, any thread count).
+ * Blocked as ulpd_forces: bond lengths and influences vectorised per block of entries, the bonds
+ * inside the family compacted, their 17 products vectorised, then summed in list order (the same
+ * expressions and sums as the former per-entry loop: bitwise the same results). */
 static inline ULPD_ALWAYS_INLINE void ulpd_family(const int dim, const ulpd_config *cfg, const ulpd_fields *F,
                                                   const ej_off *restrict off, const ej_idx *restrict idx, ej_idx i,
                                                   ej_real M[9], ej_real N[9], ej_real *gamma, ej_real *phi_num)
@@ -378,41 +384,79 @@ static inline ULPD_ALWAYS_INLINE void ulpd_family(const int dim, const ulpd_conf
   const ej_real vi0 = v[3 * i], vi1 = dim > 1 ? v[3 * i + 1] : 0.0, vi2 = dim > 2 ? v[3 * i + 2] : 0.0;
   const ej_real inv_delta = 1.0 / F->delta[i];
   const ej_real rmin = cfg->rho_min;
-  ej_real m00 = 0, m01 = 0, m02 = 0, m11 = 0, m12 = 0, m22 = 0;
-  ej_real n00 = 0, n01 = 0, n02 = 0, n10 = 0, n11 = 0, n12 = 0, n20 = 0, n21 = 0, n22 = 0;
-  ej_real g = 0, ph = 0;
-  for (ej_off k = off[i]; k < off[i + 1]; ++k) {
-    const ej_idx j = idx[k];
-    const ej_real y0 = x[3 * j] - xi0;
-    const ej_real y1 = dim > 1 ? x[3 * j + 1] - xi1 : 0.0;
-    const ej_real y2 = dim > 2 ? x[3 * j + 2] - xi2 : 0.0;
-    const ej_real r2 = y0 * y0 + y1 * y1 + y2 * y2;
-    const ej_real r = sqrt(r2);
-    const ej_real t = 1.0 - r * inv_delta;
-    if (!(t > 0.0) || !(r > 0.0)) continue; /* outside the family (the list has a skin), or coincident */
-    const ej_real floor_j = rmin * m[j] / vol0[j];
-    const ej_real rhoj = rho[j] < floor_j ? floor_j : rho[j];
-    const ej_real wV = t * t * m[j] / rhoj;
-    const ej_real d0 = v[3 * j] - vi0;
-    const ej_real d1 = dim > 1 ? v[3 * j + 1] - vi1 : 0.0;
-    const ej_real d2 = dim > 2 ? v[3 * j + 2] - vi2 : 0.0;
-    m00 += wV * y0 * y0;
-    n00 += wV * d0 * y0;
-    if (dim > 1) {
-      m01 += wV * y0 * y1, m11 += wV * y1 * y1;
-      n01 += wV * d0 * y1, n10 += wV * d1 * y0, n11 += wV * d1 * y1;
+  enum { P00, P01, P02, P11, P12, P22, Q00, Q01, Q02, Q10, Q11, Q12, Q20, Q21, Q22, PG, PH, NP };
+  ej_real acc[NP] = {0};
+  ej_real y0b[ULPD_BLK], y1b[ULPD_BLK], y2b[ULPD_BLK], rb[ULPD_BLK], tb[ULPD_BLK];
+  int64_t keep[ULPD_BLK]; /* 64-bit: the lanes of the influence loop are doubles */
+  int kp[ULPD_BLK];
+  ej_real ky0[ULPD_BLK], ky1[ULPD_BLK], ky2[ULPD_BLK], kr[ULPD_BLK], kt[ULPD_BLK], km[ULPD_BLK], kf[ULPD_BLK];
+  ej_real krho[ULPD_BLK], kd0[ULPD_BLK], kd1[ULPD_BLK], kd2[ULPD_BLK];
+  ej_real pr[NP][ULPD_BLK];
+  for (ej_off k0 = off[i]; k0 < off[i + 1]; k0 += ULPD_BLK) {
+    const int nb = off[i + 1] - k0 < ULPD_BLK ? (int)(off[i + 1] - k0) : ULPD_BLK;
+    const ej_idx *restrict jx = idx + k0;
+    for (int t = 0; t < nb; ++t) {
+      const ej_idx j = jx[t];
+      y0b[t] = x[3 * j] - xi0;
+      y1b[t] = dim > 1 ? x[3 * j + 1] - xi1 : 0.0;
+      y2b[t] = dim > 2 ? x[3 * j + 2] - xi2 : 0.0;
     }
-    if (dim > 2) {
-      m02 += wV * y0 * y2, m12 += wV * y1 * y2, m22 += wV * y2 * y2;
-      n02 += wV * d0 * y2, n12 += wV * d1 * y2, n20 += wV * d2 * y0, n21 += wV * d2 * y1, n22 += wV * d2 * y2;
+#pragma omp simd
+    for (int t = 0; t < nb; ++t) {
+      const ej_real y0 = y0b[t], y1 = y1b[t], y2 = y2b[t];
+      const ej_real r2 = y0 * y0 + y1 * y1 + y2 * y2;
+      const ej_real r = sqrt(r2);
+      const ej_real tt = 1.0 - r * inv_delta;
+      rb[t] = r, tb[t] = tt;
+      /* outside the family (the list has a skin), or coincident: the former skip test */
+      keep[t] = (int64_t)((tt > 0.0) & (r > 0.0));
     }
-    g += wV;
-    ph += wV * (d0 * y0 + d1 * y1 + d2 * y2) / r;
+    int nk = 0;
+    for (int t = 0; t < nb; ++t) kp[nk] = t, nk += keep[t];
+    for (int q = 0; q < nk; ++q) {
+      const int t = kp[q];
+      const ej_idx j = jx[t];
+      ky0[q] = y0b[t], ky1[q] = y1b[t], ky2[q] = y2b[t], kr[q] = rb[t], kt[q] = tb[t];
+      km[q] = m[j], kf[q] = vol0[j], krho[q] = rho[j];
+      kd0[q] = v[3 * j] - vi0;
+      kd1[q] = dim > 1 ? v[3 * j + 1] - vi1 : 0.0;
+      kd2[q] = dim > 2 ? v[3 * j + 2] - vi2 : 0.0;
+    }
+#pragma omp simd
+    for (int q = 0; q < nk; ++q) {
+      const ej_real y0 = ky0[q], y1 = ky1[q], y2 = ky2[q], r = kr[q], tt = kt[q];
+      const ej_real floor_j = rmin * km[q] / kf[q];
+      const ej_real rhoj = krho[q] < floor_j ? floor_j : krho[q];
+      const ej_real wV = tt * tt * km[q] / rhoj;
+      const ej_real d0 = kd0[q], d1 = kd1[q], d2 = kd2[q];
+      pr[P00][q] = wV * y0 * y0, pr[Q00][q] = wV * d0 * y0;
+      pr[P01][q] = wV * y0 * y1, pr[P11][q] = wV * y1 * y1;
+      pr[Q01][q] = wV * d0 * y1, pr[Q10][q] = wV * d1 * y0, pr[Q11][q] = wV * d1 * y1;
+      pr[P02][q] = wV * y0 * y2, pr[P12][q] = wV * y1 * y2, pr[P22][q] = wV * y2 * y2;
+      pr[Q02][q] = wV * d0 * y2, pr[Q12][q] = wV * d1 * y2, pr[Q20][q] = wV * d2 * y0;
+      pr[Q21][q] = wV * d2 * y1, pr[Q22][q] = wV * d2 * y2;
+      pr[PG][q] = wV, pr[PH][q] = wV * (d0 * y0 + d1 * y1 + d2 * y2) / r;
+    }
+    for (int q = 0; q < nk; ++q) {
+      acc[P00] += pr[P00][q], acc[Q00] += pr[Q00][q];
+      if (dim > 1) {
+        acc[P01] += pr[P01][q], acc[P11] += pr[P11][q];
+        acc[Q01] += pr[Q01][q], acc[Q10] += pr[Q10][q], acc[Q11] += pr[Q11][q];
+      }
+      if (dim > 2) {
+        acc[P02] += pr[P02][q], acc[P12] += pr[P12][q], acc[P22] += pr[P22][q];
+        acc[Q02] += pr[Q02][q], acc[Q12] += pr[Q12][q], acc[Q20] += pr[Q20][q], acc[Q21] += pr[Q21][q];
+        acc[Q22] += pr[Q22][q];
+      }
+      acc[PG] += pr[PG][q], acc[PH] += pr[PH][q];
+    }
   }
-  M[0] = m00, M[1] = m01, M[2] = m02, M[3] = m01, M[4] = m11, M[5] = m12, M[6] = m02, M[7] = m12, M[8] = m22;
-  N[0] = n00, N[1] = n01, N[2] = n02, N[3] = n10, N[4] = n11, N[5] = n12, N[6] = n20, N[7] = n21, N[8] = n22;
-  *gamma = g;
-  *phi_num = ph;
+  M[0] = acc[P00], M[1] = acc[P01], M[2] = acc[P02], M[3] = acc[P01], M[4] = acc[P11], M[5] = acc[P12];
+  M[6] = acc[P02], M[7] = acc[P12], M[8] = acc[P22];
+  N[0] = acc[Q00], N[1] = acc[Q01], N[2] = acc[Q02], N[3] = acc[Q10], N[4] = acc[Q11], N[5] = acc[Q12];
+  N[6] = acc[Q20], N[7] = acc[Q21], N[8] = acc[Q22];
+  *gamma = acc[PG];
+  *phi_num = acc[PH];
 }
 
 static ej_err ulpd_family_pass(ulpd_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
@@ -543,64 +587,110 @@ static ej_err ulpd_family_pass(ulpd_state *s, ej_set *set, const ej_nbr *nbr, ej
  * added to e_i (and w_visc_i) particle by particle, so the budget stays exact. kappa_i =
  * 2 dim c_hg rho_i c_i delta_i / tr(M_i) makes the continuum limit a kinematic viscosity
  * c_hg c delta acting on the second-order part of v. */
+/* Pair loop of the forces, blocked: per block of list entries, (1) the neighbours' positions and
+ * horizons are copied into local arrays and the bond lengths and the two influences computed in
+ * a vectorised loop; (2) the entries with a non-zero influence are compacted (the list has a skin:
+ * no unpredictable branch per entry); (3) the kept neighbours' m, rho, S (and L, kappa, v with the
+ * stabilisation) are copied; (4) each pair's contribution is computed in a vectorised loop; (5) the
+ * contributions are summed in list order. Every expression is the one of the former per-entry loop
+ * in the same order, and the sums run in the same order: the results are bitwise those of it. */
 static inline ULPD_ALWAYS_INLINE void ulpd_forces(const int dim, const bool stab, const ulpd_fields *F,
                                                   const ej_off *restrict off, const ej_idx *restrict idx, ej_range rg)
 {
   const ej_real *restrict x = F->x, *restrict v = F->v, *restrict m = F->m, *restrict rho = F->rho;
   const ej_real *restrict delta = F->delta, *restrict S = F->S, *restrict Lg = F->L, *restrict kappa = F->kappa;
+  ej_real y0b[ULPD_BLK], y1b[ULPD_BLK], y2b[ULPD_BLK], wib[ULPD_BLK], wjb[ULPD_BLK], db[ULPD_BLK];
+  int64_t keep[ULPD_BLK]; /* 64-bit: the lanes of the weights loop are doubles */
+  int kp[ULPD_BLK];
+  /* kept entries (compacted) */
+  ej_real ky0[ULPD_BLK], ky1[ULPD_BLK], ky2[ULPD_BLK], kwi[ULPD_BLK], kwj[ULPD_BLK], kV[ULPD_BLK];
+  ej_real kS[9][ULPD_BLK], kL[9][ULPD_BLK], kk[ULPD_BLK], kd[3][ULPD_BLK];
+  ej_real c0[ULPD_BLK], c1[ULPD_BLK], c2[ULPD_BLK], ch[ULPD_BLK];
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
     const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
     const ej_real vi0 = v[3 * i], vi1 = dim > 1 ? v[3 * i + 1] : 0.0, vi2 = dim > 2 ? v[3 * i + 2] : 0.0;
-    const ej_real *Si = S + 9 * i, *Li = Lg + 9 * i;
+    ej_real Si[9], Li[9];
+    for (int c = 0; c < 9; ++c) Si[c] = S[9 * i + c], Li[c] = Lg[9 * i + c];
     const ej_real inv_di = 1.0 / delta[i], ki = kappa[i];
     ej_real f0 = 0, f1 = 0, f2 = 0, heat = 0;
-    for (ej_off k = off[i]; k < off[i + 1]; ++k) {
-      const ej_idx j = idx[k];
-      const ej_real y0 = x[3 * j] - xi0;
-      const ej_real y1 = dim > 1 ? x[3 * j + 1] - xi1 : 0.0;
-      const ej_real y2 = dim > 2 ? x[3 * j + 2] - xi2 : 0.0;
-      const ej_real r = sqrt(y0 * y0 + y1 * y1 + y2 * y2);
-      const ej_real ti = 1.0 - r * inv_di, tj = 1.0 - r / delta[j];
-      const ej_real wi = ti > 0.0 ? ti * ti : 0.0, wj = tj > 0.0 ? tj * tj : 0.0;
-      if ((wi == 0.0 && wj == 0.0) || !(r > 0.0)) continue;
-      const ej_real Vj = m[j] / rho[j];
-      const ej_real *Sj = S + 9 * j;
-      /* (wi S_i + wj S_j) y */
-      ej_real t0 = (wi * Si[0] + wj * Sj[0]) * y0, t1 = 0, t2 = 0;
-      if (dim > 1) {
-        t0 += (wi * Si[1] + wj * Sj[1]) * y1;
-        t1 = (wi * Si[3] + wj * Sj[3]) * y0 + (wi * Si[4] + wj * Sj[4]) * y1;
+    for (ej_off k0 = off[i]; k0 < off[i + 1]; k0 += ULPD_BLK) {
+      const int nb = off[i + 1] - k0 < ULPD_BLK ? (int)(off[i + 1] - k0) : ULPD_BLK;
+      const ej_idx *restrict jx = idx + k0;
+      for (int t = 0; t < nb; ++t) {
+        const ej_idx j = jx[t];
+        y0b[t] = x[3 * j] - xi0;
+        y1b[t] = dim > 1 ? x[3 * j + 1] - xi1 : 0.0;
+        y2b[t] = dim > 2 ? x[3 * j + 2] - xi2 : 0.0;
+        db[t] = delta[j];
       }
-      if (dim > 2) {
-        t0 += (wi * Si[2] + wj * Sj[2]) * y2;
-        t1 += (wi * Si[5] + wj * Sj[5]) * y2;
-        t2 = (wi * Si[6] + wj * Sj[6]) * y0 + (wi * Si[7] + wj * Sj[7]) * y1 + (wi * Si[8] + wj * Sj[8]) * y2;
+#pragma omp simd
+      for (int t = 0; t < nb; ++t) {
+        const ej_real y0 = y0b[t], y1 = y1b[t], y2 = y2b[t];
+        const ej_real r = sqrt(y0 * y0 + y1 * y1 + y2 * y2);
+        const ej_real ti = 1.0 - r * inv_di, tj = 1.0 - r / db[t];
+        const ej_real wi = ti > 0.0 ? ti * ti : 0.0, wj = tj > 0.0 ? tj * tj : 0.0;
+        wib[t] = wi, wjb[t] = wj;
+        /* the former skip test, (wi == 0 && wj == 0) || !(r > 0), without branches (wi, wj >= 0) */
+        keep[t] = (int64_t)((wi + wj > 0.0) & (r > 0.0));
       }
-      if (stab) {
-        const ej_real *Lj = Lg + 9 * j;
-        const ej_real kj = kappa[j];
-        const ej_real d0 = v[3 * j] - vi0;
-        const ej_real d1 = dim > 1 ? v[3 * j + 1] - vi1 : 0.0;
-        const ej_real d2 = dim > 2 ? v[3 * j + 2] - vi2 : 0.0;
-        ej_real zi0 = d0 - Li[0] * y0, zj0 = d0 - Lj[0] * y0, zi1 = 0, zj1 = 0, zi2 = 0, zj2 = 0;
+      int nk = 0;
+      for (int t = 0; t < nb; ++t) kp[nk] = t, nk += keep[t];
+      for (int q = 0; q < nk; ++q) {
+        const int t = kp[q];
+        const ej_idx j = jx[t];
+        ky0[q] = y0b[t], ky1[q] = y1b[t], ky2[q] = y2b[t], kwi[q] = wib[t], kwj[q] = wjb[t];
+        kV[q] = m[j] / rho[j];
+        for (int c = 0; c < 9; ++c) kS[c][q] = S[9 * j + c];
+        if (stab) {
+          for (int c = 0; c < 9; ++c) kL[c][q] = Lg[9 * j + c];
+          kk[q] = kappa[j];
+          kd[0][q] = v[3 * j] - vi0;
+          kd[1][q] = dim > 1 ? v[3 * j + 1] - vi1 : 0.0;
+          kd[2][q] = dim > 2 ? v[3 * j + 2] - vi2 : 0.0;
+        }
+      }
+#pragma omp simd
+      for (int q = 0; q < nk; ++q) {
+        const ej_real y0 = ky0[q], y1 = ky1[q], y2 = ky2[q], wi = kwi[q], wj = kwj[q], Vj = kV[q];
+        /* (wi S_i + wj S_j) y */
+        ej_real t0 = (wi * Si[0] + wj * kS[0][q]) * y0, t1 = 0, t2 = 0;
         if (dim > 1) {
-          zi0 -= Li[1] * y1, zj0 -= Lj[1] * y1;
-          zi1 = d1 - Li[3] * y0 - Li[4] * y1, zj1 = d1 - Lj[3] * y0 - Lj[4] * y1;
+          t0 += (wi * Si[1] + wj * kS[1][q]) * y1;
+          t1 = (wi * Si[3] + wj * kS[3][q]) * y0 + (wi * Si[4] + wj * kS[4][q]) * y1;
         }
         if (dim > 2) {
-          zi0 -= Li[2] * y2, zj0 -= Lj[2] * y2;
-          zi1 -= Li[5] * y2, zj1 -= Lj[5] * y2;
-          zi2 = d2 - Li[6] * y0 - Li[7] * y1 - Li[8] * y2, zj2 = d2 - Lj[6] * y0 - Lj[7] * y1 - Lj[8] * y2;
+          t0 += (wi * Si[2] + wj * kS[2][q]) * y2;
+          t1 += (wi * Si[5] + wj * kS[5][q]) * y2;
+          t2 = (wi * Si[6] + wj * kS[6][q]) * y0 + (wi * Si[7] + wj * kS[7][q]) * y1 + (wi * Si[8] + wj * kS[8][q]) * y2;
         }
-        const ej_real ai = ki * wi, aj = kj * wj;
-        t0 += ai * zi0 + aj * zj0;
-        t1 += ai * zi1 + aj * zj1;
-        t2 += ai * zi2 + aj * zj2;
-        heat += Vj * ai * (zi0 * d0 + zi1 * d1 + zi2 * d2);
+        ej_real hq = 0.0;
+        if (stab) {
+          const ej_real kj = kk[q];
+          const ej_real d0 = kd[0][q], d1 = kd[1][q], d2 = kd[2][q];
+          ej_real zi0 = d0 - Li[0] * y0, zj0 = d0 - kL[0][q] * y0, zi1 = 0, zj1 = 0, zi2 = 0, zj2 = 0;
+          if (dim > 1) {
+            zi0 -= Li[1] * y1, zj0 -= kL[1][q] * y1;
+            zi1 = d1 - Li[3] * y0 - Li[4] * y1, zj1 = d1 - kL[3][q] * y0 - kL[4][q] * y1;
+          }
+          if (dim > 2) {
+            zi0 -= Li[2] * y2, zj0 -= kL[2][q] * y2;
+            zi1 -= Li[5] * y2, zj1 -= kL[5][q] * y2;
+            zi2 = d2 - Li[6] * y0 - Li[7] * y1 - Li[8] * y2, zj2 = d2 - kL[6][q] * y0 - kL[7][q] * y1 - kL[8][q] * y2;
+          }
+          const ej_real ai = ki * wi, aj = kj * wj;
+          t0 += ai * zi0 + aj * zj0;
+          t1 += ai * zi1 + aj * zj1;
+          t2 += ai * zi2 + aj * zj2;
+          hq = Vj * ai * (zi0 * d0 + zi1 * d1 + zi2 * d2);
+        }
+        c0[q] = Vj * t0, c1[q] = Vj * t1, c2[q] = Vj * t2, ch[q] = hq;
       }
-      f0 += Vj * t0;
-      if (dim > 1) f1 += Vj * t1;
-      if (dim > 2) f2 += Vj * t2;
+      for (int q = 0; q < nk; ++q) {
+        f0 += c0[q];
+        if (dim > 1) f1 += c1[q];
+        if (dim > 2) f2 += c2[q];
+        if (stab) heat += ch[q];
+      }
     }
     const ej_real inv_rho = 1.0 / rho[i];
     F->a[3 * i] += f0 * inv_rho;
