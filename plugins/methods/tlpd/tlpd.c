@@ -173,7 +173,10 @@ static const ej_param tlpd_params[] = {
                   "Penalty coefficient c of the hourglass control (002: 0.01)."),
     EJ_PARAM_REAL(tlpd_config, min_rcond, "1", 1e-6, 0, 0.3, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX | EJ_PF_EXPERT,
                   "Reciprocal condition number of K below which a particle uses the bond-based spring "
-                  "fallback (002 section 1.3) instead of the correspondence force."),
+                  "fallback (002 section 1.3) instead of the correspondence force. The default catches only "
+                  "exactly planar or collinear families; fragmenting soil needs about 1e-2, where a damaged "
+                  "particle's few intact bonds that nearly lie in a plane no longer define F (README "
+                  "\"Degenerate families\")."),
     EJ_PARAM_BOOL(tlpd_config, output_F, 0, "Write the deformation gradient F to the output frames."),
     {.name = "energy_correction", .type = EJ_PT_BOOL, .offset = offsetof(tlpd_config, energy_correction),
      .flags = EJ_PF_EXPERT, .unit = "1", .def = 1,
