@@ -2115,6 +2115,92 @@ static inline RK_ALWAYS_INLINE void rk_force_rows(const int dim, const bool lag,
   }
 }
 
+/* The pairwise viscous stabilisation alone (the box integrations: no Galerkin term in
+ * rk_force_rows), blocked: per block of list entries the neighbours' positions and supports are
+ * copied and the pairs inside the mean support compacted (a vectorised test), the kept pairs'
+ * fields copied, their terms computed in a vectorised loop (rk_phi if-converted: the same value
+ * from the same branch), then summed in list order. The expressions and sums are those of
+ * rk_force_rows in the same order: bitwise the same accelerations and heat. */
+#define RK_SBLK 128
+static inline RK_ALWAYS_INLINE void rk_stab_rows(const int dim, const rk_args *A, ej_range rg)
+{
+  const ej_real *restrict X = A->X, *restrict ra = A->ra, *restrict v = A->v, *restrict m = A->m;
+  const ej_real *restrict rho = A->rho, *restrict cs = A->c, *restrict rs = A->rs, *restrict gv = A->gv;
+  const ej_real alpha = A->alpha, inv_sup = 1.0 / A->support;
+  ej_real hb0[RK_SBLK], hb1[RK_SBLK], hb2[RK_SBLK], r2b[RK_SBLK], ajb[RK_SBLK];
+  int64_t keep[RK_SBLK];
+  int kp[RK_SBLK];
+  ej_real kh[3][RK_SBLK], kr2[RK_SBLK], kaj[RK_SBLK], kdv[3][RK_SBLK], kG[9][RK_SBLK], kro[RK_SBLK], kc[RK_SBLK];
+  ej_real krs[RK_SBLK], tf[3][RK_SBLK], th[3][RK_SBLK];
+  for (ej_idx i = rg.begin; i < rg.end; ++i) {
+    const ej_real xi[3] = {X[3 * i], dim > 1 ? X[3 * i + 1] : 0.0, dim > 2 ? X[3 * i + 2] : 0.0};
+    const ej_real vi[3] = {v[3 * i], v[3 * i + 1], v[3 * i + 2]};
+    const ej_real ai = ra[i], rhoi = rho[i], csi = cs[i], rsi = rs[i];
+    ej_real Gi[9];
+    for (int c = 0; c < 9; ++c) Gi[c] = gv[9 * i + c];
+    ej_real f[3] = {0}, heat = 0.0;
+    for (ej_off k0 = A->off[i]; k0 < A->off[i + 1]; k0 += RK_SBLK) {
+      const int nb = A->off[i + 1] - k0 < RK_SBLK ? (int)(A->off[i + 1] - k0) : RK_SBLK;
+      const ej_idx *restrict jx = A->idx + k0;
+      for (int t = 0; t < nb; ++t) {
+        const ej_idx j = jx[t];
+        hb0[t] = X[3 * j] - xi[0]; /* X_J - X_I */
+        hb1[t] = dim > 1 ? X[3 * j + 1] - xi[1] : 0.0;
+        hb2[t] = dim > 2 ? X[3 * j + 2] - xi[2] : 0.0;
+        ajb[t] = ra[j];
+      }
+#pragma omp simd
+      for (int t = 0; t < nb; ++t) {
+        const ej_real r2 = hb0[t] * hb0[t] + hb1[t] * hb1[t] + hb2[t] * hb2[t];
+        const ej_real abar = 0.5 * (ai + ajb[t]);
+        const ej_real amax = ai > abar ? ai : abar;
+        r2b[t] = r2;
+        /* rk_force_rows: skipped when r2 >= amax^2, the term only when r2 < abar^2 (abar <= amax) */
+        keep[t] = (int64_t)((r2 < amax * amax) & (r2 < abar * abar));
+      }
+      int nk = 0;
+      for (int t = 0; t < nb; ++t) kp[nk] = t, nk += keep[t];
+      for (int q = 0; q < nk; ++q) {
+        const int t = kp[q];
+        const ej_idx j = jx[t];
+        kh[0][q] = hb0[t], kh[1][q] = hb1[t], kh[2][q] = hb2[t], kr2[q] = r2b[t], kaj[q] = ajb[t];
+        for (int c = 0; c < 3; ++c) kdv[c][q] = v[3 * j + c] - vi[c];
+        for (int c = 0; c < 9; ++c) kG[c][q] = gv[9 * j + c];
+        kro[q] = rho[j], kc[q] = cs[j], krs[q] = rs[j];
+      }
+#pragma omp simd
+      for (int q = 0; q < nk; ++q) {
+        const ej_real aj = kaj[q], abar = 0.5 * (ai + aj);
+        const ej_real r = sqrt(kr2[q]);
+        /* rk_phi(r / abar) written as a select (GCC vectorises it; the same value from the same branch) */
+        const ej_real zz = r / abar, t1 = 1.0 - zz;
+        const ej_real inner = 2.0 / 3.0 - 4.0 * zz * zz + 4.0 * zz * zz * zz, outer = 4.0 / 3.0 * t1 * t1 * t1;
+        const ej_real ws = zz >= 1.0 ? 0.0 : zz <= 0.5 ? inner : outer;
+        const ej_real h0 = kh[0][q], h1 = kh[1][q], h2 = kh[2][q];
+        /* z_c = (v_J - v_I)_c - sum_d mean(G)_cd h_d, summed from 0 over d as rk_force_rows */
+#define RK_STAB_Z(c)                                                                                   \
+  (kdv[c][q] - ((0.0 + 0.5 * (Gi[3 * (c)] + kG[3 * (c)][q]) * h0) +                                    \
+                (dim > 1 ? 0.5 * (Gi[3 * (c) + 1] + kG[3 * (c) + 1][q]) * h1 : 0.0) +                  \
+                (dim > 2 ? 0.5 * (Gi[3 * (c) + 2] + kG[3 * (c) + 2][q]) * h2 : 0.0)))
+        const ej_real z0 = RK_STAB_Z(0), z1 = RK_STAB_Z(1), z2 = RK_STAB_Z(2);
+#undef RK_STAB_Z
+        const ej_real hb = 0.5 * (ai + aj) * inv_sup;
+        const ej_real hp = dim == 3 ? hb * hb : dim == 2 ? hb : 1.0;
+        const ej_real cij = alpha * 0.25 * (rhoi + kro[q]) * (csi + kc[q]) * hp * ws * 2.0 / (rsi + krs[q]);
+        tf[0][q] = cij * z0, th[0][q] = cij * z0 * kdv[0][q];
+        tf[1][q] = cij * z1, th[1][q] = cij * z1 * kdv[1][q];
+        tf[2][q] = cij * z2, th[2][q] = cij * z2 * kdv[2][q];
+      }
+      for (int q = 0; q < nk; ++q)
+        for (int c = 0; c < 3; ++c) f[c] += tf[c][q], heat += th[c][q];
+    }
+    const ej_real inv_m = 1.0 / m[i];
+    for (int c = 0; c < dim; ++c) A->a[3 * i + c] += f[c] * inv_m;
+    A->e_dot[i] += 0.5 * heat * inv_m;
+    A->w_dot[i] += 0.5 * heat * inv_m;
+  }
+}
+
 /* MSNNI pass 2 (gather form): f_I = -sum_{L in {I} + neighbours} sum_f Psi_I(x_f(L)) T_f(L),
  * Psi_I(x_f) = (b0_f + b_f . (x_f - x_I) / a_L) phi_I(x_f - x_I), with L's face data read from
  * its id's row. A ghost L (index >= n) is an image of its source: periodic (same faces) or
@@ -2282,6 +2368,14 @@ static ej_err rk_pass_force(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_rang
     default: EJ_TRY(rk_box_force_rows(3, s, set, &A, hb, id, sig, n, r)); break;
     }
     if (A.alpha <= 0.0) return EJ_OK;
+  }
+  if (A.galerkin == false && !s->lagrangian) { /* the box integrations: the stabilisation alone */
+    switch (s->dim) {
+    case 1: rk_stab_rows(1, &A, r); break;
+    case 2: rk_stab_rows(2, &A, r); break;
+    default: rk_stab_rows(3, &A, r); break;
+    }
+    return EJ_OK;
   }
   switch (s->dim * 2 + (int)s->lagrangian) {
   case 2: rk_force_rows(1, false, &A, r); break;
