@@ -311,6 +311,20 @@ static inline int ulpd_inverse(int dim, const ej_real M[9], ej_real rcond_min, e
 /* Entries of a row handled per block by the pair loops (stack scratch, no allocation). */
 #define ULPD_BLK 128
 
+/* Bond vectors y = x_j - x_i of a block of list entries jx[0..nb) into y0, y1, y2 (zero beyond dim). */
+static inline ULPD_ALWAYS_INLINE void ulpd_block_bonds(const int dim, const ej_real *restrict x,
+                                                       const ej_idx *restrict jx, int nb, ej_real xi0, ej_real xi1,
+                                                       ej_real xi2, ej_real *restrict y0, ej_real *restrict y1,
+                                                       ej_real *restrict y2)
+{
+  for (int t = 0; t < nb; ++t) {
+    const ej_idx j = jx[t];
+    y0[t] = x[3 * j] - xi0;
+    y1[t] = dim > 1 ? x[3 * j + 1] - xi1 : 0.0;
+    y2[t] = dim > 2 ? x[3 * j + 2] - xi2 : 0.0;
+  }
+}
+
 /* Floors rho, sets delta for the particles of r; flags particles that hit the floor. */
 static ej_err ulpd_prepare(const ulpd_state *s, const ej_set *set, const ulpd_fields *F, ej_range r, bool horizon)
 {
@@ -407,12 +421,7 @@ static inline ULPD_ALWAYS_INLINE void ulpd_family(const int dim, const ulpd_conf
   for (ej_off k0 = off[i]; k0 < off[i + 1]; k0 += ULPD_BLK) {
     const int nb = off[i + 1] - k0 < ULPD_BLK ? (int)(off[i + 1] - k0) : ULPD_BLK;
     const ej_idx *restrict jx = idx + k0;
-    for (int t = 0; t < nb; ++t) {
-      const ej_idx j = jx[t];
-      y0b[t] = x[3 * j] - xi0;
-      y1b[t] = dim > 1 ? x[3 * j + 1] - xi1 : 0.0;
-      y2b[t] = dim > 2 ? x[3 * j + 2] - xi2 : 0.0;
-    }
+    ulpd_block_bonds(dim, x, jx, nb, xi0, xi1, xi2, y0b, y1b, y2b);
 #pragma omp simd
     for (int t = 0; t < nb; ++t) {
       const ej_real y0 = y0b[t], y1 = y1b[t], y2 = y2b[t];
@@ -475,8 +484,9 @@ static inline ULPD_ALWAYS_INLINE void ulpd_family(const int dim, const ulpd_conf
  * family holds about 6 members, where the blocked loops' fixed costs made ulpd's 1D Sod 40 %
  * slower (bench/speed_vs_error, 1600 particles: 2.36 -> 3.30 s CPU). Same sums, same order. */
 static inline ULPD_ALWAYS_INLINE void ulpd_family_entry(const int dim, const ulpd_config *cfg, const ulpd_fields *F,
-                                                  const ej_off *restrict off, const ej_idx *restrict idx, ej_idx i,
-                                                  ej_real M[9], ej_real N[9], ej_real *gamma, ej_real *phi_num)
+                                                        const ej_off *restrict off, const ej_idx *restrict idx,
+                                                        ej_idx i, ej_real M[9], ej_real N[9], ej_real *gamma,
+                                                        ej_real *phi_num)
 {
   const ej_real *restrict x = F->x, *restrict v = F->v, *restrict m = F->m, *restrict vol0 = F->vol0;
   const ej_real *restrict rho = F->rho;
@@ -649,6 +659,20 @@ static ej_err ulpd_family_pass(ulpd_state *s, ej_set *set, const ej_nbr *nbr, ej
  * added to e_i (and w_visc_i) particle by particle, so the budget stays exact. kappa_i =
  * 2 dim c_hg rho_i c_i delta_i / tr(M_i) makes the continuum limit a kinematic viscosity
  * c_hg c delta acting on the second-order part of v. */
+/* The pair loops' result for particle i: a += f / rho, and the stabilisation heat into e and w_visc. */
+static inline ULPD_ALWAYS_INLINE void ulpd_store_force(const int dim, const bool stab, const ulpd_fields *F, ej_idx i,
+                                                       ej_real f0, ej_real f1, ej_real f2, ej_real heat)
+{
+  const ej_real inv_rho = 1.0 / F->rho[i];
+  F->a[3 * i] += f0 * inv_rho;
+  if (dim > 1) F->a[3 * i + 1] += f1 * inv_rho;
+  if (dim > 2) F->a[3 * i + 2] += f2 * inv_rho;
+  if (stab) {
+    F->e_dot[i] += heat * inv_rho;
+    F->w_visc_dot[i] += heat * inv_rho;
+  }
+}
+
 /* Pair loop of the forces, blocked: per block of list entries, (1) the neighbours' positions and
  * horizons are copied into local arrays and the bond lengths and the two influences computed in
  * a vectorised loop; (2) the entries with a non-zero influence are compacted (the list has a skin:
@@ -678,13 +702,8 @@ static inline ULPD_ALWAYS_INLINE void ulpd_forces(const int dim, const bool stab
     for (ej_off k0 = off[i]; k0 < off[i + 1]; k0 += ULPD_BLK) {
       const int nb = off[i + 1] - k0 < ULPD_BLK ? (int)(off[i + 1] - k0) : ULPD_BLK;
       const ej_idx *restrict jx = idx + k0;
-      for (int t = 0; t < nb; ++t) {
-        const ej_idx j = jx[t];
-        y0b[t] = x[3 * j] - xi0;
-        y1b[t] = dim > 1 ? x[3 * j + 1] - xi1 : 0.0;
-        y2b[t] = dim > 2 ? x[3 * j + 2] - xi2 : 0.0;
-        db[t] = delta[j];
-      }
+      ulpd_block_bonds(dim, x, jx, nb, xi0, xi1, xi2, y0b, y1b, y2b);
+      for (int t = 0; t < nb; ++t) db[t] = delta[jx[t]];
 #pragma omp simd
       for (int t = 0; t < nb; ++t) {
         const ej_real y0 = y0b[t], y1 = y1b[t], y2 = y2b[t];
@@ -754,20 +773,14 @@ static inline ULPD_ALWAYS_INLINE void ulpd_forces(const int dim, const bool stab
         if (stab) heat += ch[q];
       }
     }
-    const ej_real inv_rho = 1.0 / rho[i];
-    F->a[3 * i] += f0 * inv_rho;
-    if (dim > 1) F->a[3 * i + 1] += f1 * inv_rho;
-    if (dim > 2) F->a[3 * i + 2] += f2 * inv_rho;
-    if (stab) {
-      F->e_dot[i] += heat * inv_rho;
-      F->w_visc_dot[i] += heat * inv_rho;
-    }
+    ulpd_store_force(dim, stab, F, i, f0, f1, f2, heat);
   }
 }
 
 /* The per-entry form of the pair loop (kept for 1D, as ulpd_family_entry). */
 static inline ULPD_ALWAYS_INLINE void ulpd_forces_entry(const int dim, const bool stab, const ulpd_fields *F,
-                                                  const ej_off *restrict off, const ej_idx *restrict idx, ej_range rg)
+                                                        const ej_off *restrict off, const ej_idx *restrict idx,
+                                                        ej_range rg)
 {
   const ej_real *restrict x = F->x, *restrict v = F->v, *restrict m = F->m, *restrict rho = F->rho;
   const ej_real *restrict delta = F->delta, *restrict S = F->S, *restrict Lg = F->L, *restrict kappa = F->kappa;
@@ -825,14 +838,7 @@ static inline ULPD_ALWAYS_INLINE void ulpd_forces_entry(const int dim, const boo
       if (dim > 1) f1 += Vj * t1;
       if (dim > 2) f2 += Vj * t2;
     }
-    const ej_real inv_rho = 1.0 / rho[i];
-    F->a[3 * i] += f0 * inv_rho;
-    if (dim > 1) F->a[3 * i + 1] += f1 * inv_rho;
-    if (dim > 2) F->a[3 * i + 2] += f2 * inv_rho;
-    if (stab) {
-      F->e_dot[i] += heat * inv_rho;
-      F->w_visc_dot[i] += heat * inv_rho;
-    }
+    ulpd_store_force(dim, stab, F, i, f0, f1, f2, heat);
   }
 }
 
