@@ -323,10 +323,11 @@ static void rk_faces_init(rk_state *s)
 /* Cubic B-spline (normalisation irrelevant: the RK correction reproduces constants). */
 static inline RK_ALWAYS_INLINE ej_real rk_phi(ej_real z)
 {
-  if (z >= 1.0) return 0.0;
-  if (z <= 0.5) return 2.0 / 3.0 - 4.0 * z * z + 4.0 * z * z * z;
+  /* written as a select of the two pieces (each the value its branch returned) so that GCC
+   * vectorises loops that call it */
   const ej_real t = 1.0 - z;
-  return 4.0 / 3.0 * t * t * t;
+  const ej_real inner = 2.0 / 3.0 - 4.0 * z * z + 4.0 * z * z * z, outer = 4.0 / 3.0 * t * t * t;
+  return z >= 1.0 ? 0.0 : z <= 0.5 ? inner : outer;
 }
 #define RK_PHI0 (2.0 / 3.0)
 
@@ -2029,6 +2030,31 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
  * Stabilisation: z_IJ = (v_J - v_I) - (G_I + G_J)/2 (X_J - X_I) vanishes for linear fields;
  *   f_I += sum_J c_IJ z_IJ, c_IJ = alpha rho_ij c_ij h_ij^(dim-1) phi(r/a_ij) 2 / (S_I + S_J),
  * antisymmetric in I, J; its power heats the pair: m_I de_I/dt += 1/2 sum_J c_IJ z_IJ.(v_J - v_I). */
+/* The pairwise viscous stabilisation's term of pair (I, J) (rk_force_rows, rk_stab_rows): z = (v_J -
+ * v_I) - mean(G) h, h = X_J - X_I, summed from 0 over d; returns the coefficient c_IJ (kernel on the
+ * mean support abar). G_J's entry c is Gj[c * gs]. */
+static inline RK_ALWAYS_INLINE ej_real rk_stab_pair(const int dim, const ej_real alpha, const ej_real inv_sup,
+                                                   const ej_real ai, const ej_real aj, const ej_real r,
+                                                   const ej_real rho_sum, const ej_real c_sum, const ej_real rs_sum,
+                                                   const ej_real *restrict Gi, const ej_real *restrict Gj, const int gs,
+                                                   const ej_real h0, const ej_real h1, const ej_real h2,
+                                                   const ej_real dv0, const ej_real dv1, const ej_real dv2,
+                                                   ej_real *z0, ej_real *z1, ej_real *z2)
+{
+  const ej_real abar = 0.5 * (ai + aj);
+  const ej_real ws = rk_phi(r / abar);
+  /* written out per component (no loop): GCC vectorises rk_stab_rows' pair loop only then */
+#define RK_STAB_Z(c, dvc)                                                                                    \
+  ((dvc) - ((0.0 + 0.5 * (Gi[3 * (c)] + Gj[3 * (c) * gs]) * h0) +                                            \
+            (dim > 1 ? 0.5 * (Gi[3 * (c) + 1] + Gj[(3 * (c) + 1) * gs]) * h1 : 0.0) +                        \
+            (dim > 2 ? 0.5 * (Gi[3 * (c) + 2] + Gj[(3 * (c) + 2) * gs]) * h2 : 0.0)))
+  *z0 = RK_STAB_Z(0, dv0), *z1 = RK_STAB_Z(1, dv1), *z2 = RK_STAB_Z(2, dv2);
+#undef RK_STAB_Z
+  const ej_real hb = 0.5 * (ai + aj) * inv_sup;
+  const ej_real hp = dim == 3 ? hb * hb : dim == 2 ? hb : 1.0;
+  return alpha * 0.25 * rho_sum * c_sum * hp * ws * 2.0 / rs_sum;
+}
+
 static inline RK_ALWAYS_INLINE void rk_force_rows(const int dim, const bool lag, const rk_args *A, ej_range rg)
 {
   const ej_real *restrict X = A->X, *restrict ra = A->ra, *restrict v = A->v, *restrict m = A->m;
@@ -2091,20 +2117,13 @@ static inline RK_ALWAYS_INLINE void rk_force_rows(const int dim, const bool lag,
       }
       /* Stabilisation, symmetric kernel weight on the mean support. */
       if (alpha > 0.0 && r2 < abar * abar) {
-        const ej_real ws = rk_phi(r / abar);
-        const ej_real *Gj = gv + 9 * j;
+        const ej_real dv[3] = {v[3 * j] - v[3 * i], v[3 * j + 1] - v[3 * i + 1], v[3 * j + 2] - v[3 * i + 2]};
         ej_real z[3];
-        for (int c = 0; c < 3; ++c) {
-          ej_real t = 0.0;
-          for (int d = 0; d < dim; ++d) t += 0.5 * (Gi[3 * c + d] + Gj[3 * c + d]) * h[d];
-          z[c] = (v[3 * j + c] - v[3 * i + c]) - t;
-        }
-        const ej_real hb = 0.5 * (ai + aj) * inv_sup;
-        const ej_real hp = dim == 3 ? hb * hb : dim == 2 ? hb : 1.0;
-        const ej_real cij = alpha * 0.25 * (rho[i] + rho[j]) * (cs[i] + cs[j]) * hp * ws * 2.0 / (rs[i] + rs[j]);
+        const ej_real cij = rk_stab_pair(dim, alpha, inv_sup, ai, aj, r, rho[i] + rho[j], cs[i] + cs[j], rs[i] + rs[j],
+                                         Gi, gv + 9 * j, 1, h[0], h[1], h[2], dv[0], dv[1], dv[2], &z[0], &z[1], &z[2]);
         for (int c = 0; c < 3; ++c) {
           f[c] += cij * z[c];
-          heat += cij * z[c] * (v[3 * j + c] - v[3 * i + c]);
+          heat += cij * z[c] * dv[c];
         }
       }
     }
@@ -2170,23 +2189,10 @@ static inline RK_ALWAYS_INLINE void rk_stab_rows(const int dim, const rk_args *A
       }
 #pragma omp simd
       for (int q = 0; q < nk; ++q) {
-        const ej_real aj = kaj[q], abar = 0.5 * (ai + aj);
-        const ej_real r = sqrt(kr2[q]);
-        /* rk_phi(r / abar) written as a select (GCC vectorises it; the same value from the same branch) */
-        const ej_real zz = r / abar, t1 = 1.0 - zz;
-        const ej_real inner = 2.0 / 3.0 - 4.0 * zz * zz + 4.0 * zz * zz * zz, outer = 4.0 / 3.0 * t1 * t1 * t1;
-        const ej_real ws = zz >= 1.0 ? 0.0 : zz <= 0.5 ? inner : outer;
-        const ej_real h0 = kh[0][q], h1 = kh[1][q], h2 = kh[2][q];
-        /* z_c = (v_J - v_I)_c - sum_d mean(G)_cd h_d, summed from 0 over d as rk_force_rows */
-#define RK_STAB_Z(c)                                                                                   \
-  (kdv[c][q] - ((0.0 + 0.5 * (Gi[3 * (c)] + kG[3 * (c)][q]) * h0) +                                    \
-                (dim > 1 ? 0.5 * (Gi[3 * (c) + 1] + kG[3 * (c) + 1][q]) * h1 : 0.0) +                  \
-                (dim > 2 ? 0.5 * (Gi[3 * (c) + 2] + kG[3 * (c) + 2][q]) * h2 : 0.0)))
-        const ej_real z0 = RK_STAB_Z(0), z1 = RK_STAB_Z(1), z2 = RK_STAB_Z(2);
-#undef RK_STAB_Z
-        const ej_real hb = 0.5 * (ai + aj) * inv_sup;
-        const ej_real hp = dim == 3 ? hb * hb : dim == 2 ? hb : 1.0;
-        const ej_real cij = alpha * 0.25 * (rhoi + kro[q]) * (csi + kc[q]) * hp * ws * 2.0 / (rsi + krs[q]);
+        ej_real z0, z1, z2;
+        const ej_real cij = rk_stab_pair(dim, alpha, inv_sup, ai, kaj[q], sqrt(kr2[q]), rhoi + kro[q], csi + kc[q],
+                                         rsi + krs[q], Gi, &kG[0][q], RK_SBLK, kh[0][q], kh[1][q], kh[2][q], kdv[0][q],
+                                         kdv[1][q], kdv[2][q], &z0, &z1, &z2);
         tf[0][q] = cij * z0, th[0][q] = cij * z0 * kdv[0][q];
         tf[1][q] = cij * z1, th[1][q] = cij * z1 * kdv[1][q];
         tf[2][q] = cij * z2, th[2][q] = cij * z2 * kdv[2][q];
