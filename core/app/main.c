@@ -1,6 +1,8 @@
 /* The ejecta command line: run | check | plugins | describe NAME | schema.
- * Exit codes: 0 success, 1 a run that failed (watchdog, numerics, I/O), 2 bad input. */
+ * Exit codes: 0 success, 1 a run that failed (watchdog, numerics, I/O), 2 bad input, 128 + N a run
+ * stopped by signal N (SIGINT 130, SIGTERM 143) with its state kept for --restart. */
 #include <errno.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -21,7 +23,9 @@ static const char *usage =
     "  schema [-o FILE]    JSON Schema of the scene format (schemas/scene.schema.json)\n"
     "  --version           print the version and build signature\n"
     "\n"
-    "Plugins are searched in the build tree, the install prefix, then EJECTA_PLUGIN_PATH.\n";
+    "Plugins are searched in the build tree, the install prefix, then EJECTA_PLUGIN_PATH.\n"
+    "Ctrl-C (SIGINT) or SIGTERM stops a run after its current step and keeps its state in\n"
+    "FILE.partial for --restart (exit 130 / 143); a second one aborts.\n";
 
 static int ej_exit_code(ej_err rc)
 {
@@ -47,6 +51,40 @@ static int ej_bad_usage(const char *fmt, const char *arg)
   fprintf(stderr, fmt, arg);
   fprintf(stderr, "\n%s", usage);
   return 2;
+}
+
+/* SIGINT / SIGTERM during a run: the first asks the run to stop after its current step (it keeps
+ * a last frame and a checkpoint in NAME.partial, like LS-DYNA's sense switch sw1); a second one
+ * ends the process at once (the default action, re-raised). */
+static void ej_on_stop_signal(int signo)
+{
+  static volatile sig_atomic_t seen;
+  if (seen) {
+    signal(signo, SIG_DFL);
+    raise(signo);
+    return;
+  }
+  seen = 1;
+  static const char msg[] = "\nejecta: stopping after this step (the state is kept for --restart; again to abort)\n";
+  ssize_t w = write(STDERR_FILENO, msg, sizeof msg - 1);
+  (void)w;
+  ej_sim_request_stop(signo);
+}
+
+static void ej_catch_stop_signals(void)
+{
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = ej_on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  for (int k = 0; k < 2; ++k) {
+    const int signo = k ? SIGTERM : SIGINT;
+    struct sigaction old;
+    /* a shell's background job has SIGINT ignored: keep it so */
+    if (sigaction(signo, NULL, &old) == 0 && old.sa_handler == SIG_IGN) continue;
+    sigaction(signo, &sa, NULL);
+  }
 }
 
 static int cmd_run(int argc, char **argv, bool check_only)
@@ -89,6 +127,8 @@ static int cmd_run(int argc, char **argv, bool check_only)
   }
   if (!scene_path) return ej_bad_usage("%s needs a scene file", check_only ? "check" : "run");
   opts.check_only = check_only;
+  /* from here: a signal during the set-up stops the run after its first step */
+  if (!check_only) ej_catch_stop_signals();
   ej_registry *reg = NULL;
   ej_scene *scene = NULL;
   ej_sim *sim = NULL;
@@ -107,6 +147,18 @@ static int cmd_run(int argc, char **argv, bool check_only)
            scene->t_end);
   } else {
     EJ_TRY_GOTO(rc, ej_sim_run(sim), out);
+    const int sig = ej_sim_stop_signal(sim);
+    if (sig) {
+      fprintf(stderr,
+              "ejecta: stopped by %s at step %lld, t = %g s (end %g s); a last frame and a checkpoint are in "
+              "%s.partial; continue with: ejecta run %s --restart %s.partial\n",
+              sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a stop request", (long long)sim->step, sim->t,
+              scene->t_end, sim->out_path, scene_path, sim->out_path);
+      ej_sim_destroy(sim);
+      ej_scene_destroy(scene);
+      ej_registry_destroy(reg);
+      return 128 + (sig > 0 ? sig : 0);
+    }
     printf("ejecta: wrote %s (%lld steps, %lld neighbour rebuilds, t = %g s; open %.*s.xdmf in ParaView)\n",
            sim->out_path, (long long)sim->step, (long long)sim->n_rebuilds, sim->t, (int)(strrchr(sim->out_path, '.') ? strrchr(sim->out_path, '.') - sim->out_path
                                                                             : (long)strlen(sim->out_path)),

@@ -523,6 +523,7 @@ struct ej_sim {
   int64_t frame;
   int threads;
   bool progress;
+  int stop_signal; /* ej_sim_request_stop: the signal (or -1) that stopped the run before its end; 0 */
   /* chunking for deterministic parallel reductions */
   ej_idx chunk;
   ej_real *chunk_scratch; /* per-chunk partial sums */

@@ -5,6 +5,7 @@
  * the thread count; plugins write only their own particles (gather form) and reductions are
  * combined per chunk in chunk order, so results are bitwise identical for any thread count. */
 #include <math.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -1642,7 +1643,7 @@ static bool ej_fail_keep(ej_sim *sim)
 
 /* ej_output_close(out, true) finished the file under its final name; a failed run must not leave
  * a file that looks whole, so it goes back to NAME.partial and the XDMF sidecar is removed. */
-static void ej_fail_rename(ej_sim *sim, ej_err close_rc)
+static void ej_fail_rename(ej_sim *sim, ej_err close_rc, bool say)
 {
   if (close_rc != EJ_OK) return;
   const char *path = sim->out_path, *slash = strrchr(path, '/'), *dot = strrchr(path, '.');
@@ -1658,9 +1659,11 @@ static void ej_fail_rename(ej_sim *sim, ej_err close_rc)
     memcpy(xdmf + stem, ".xdmf", sizeof ".xdmf");
     if (rename(path, partial) == 0) {
       remove(xdmf);
-      fprintf(stderr, "ejecta: the state at the failure (step %lld, t = %.6g s: last frame and checkpoint) is in "
-                      "'%s'; 'ejecta run SCENE --restart %s' reads it\n",
-              (long long)sim->step, sim->t, partial, partial);
+      if (say) /* not for a stopped run: the CLI says where its state is */
+        fprintf(stderr,
+                "ejecta: the state at the failure (step %lld, t = %.6g s: last frame and checkpoint) is in "
+                "'%s'; 'ejecta run SCENE --restart %s' reads it\n",
+                (long long)sim->step, sim->t, partial, partial);
     }
   }
   ej_free(partial);
@@ -1799,6 +1802,14 @@ static void ej_progress(ej_sim *sim, double t0, int64_t step0, int64_t psteps, b
   fflush(stderr);
 }
 
+/* A stop asked for by ej_sim_request_stop (a signal handler, usually): the signal number, -1, or 0.
+ * Written by the handler and read between steps by the main thread only. */
+static volatile sig_atomic_t ej_stop_request;
+
+void ej_sim_request_stop(int signo) { ej_stop_request = signo > 0 ? signo : -1; }
+
+int ej_sim_stop_signal(const ej_sim *sim) { return sim ? sim->stop_signal : 0; }
+
 ej_err ej_sim_run(ej_sim *sim)
 {
   const ej_scene *sc = sim->scene;
@@ -1882,6 +1893,14 @@ ej_err ej_sim_run(ej_sim *sim)
     EJ_TRY_GOTO(rc, ej_maybe_output(sim, last), out);
     if (sim->profile) sim->prof_out += ej_thread_cpu() - t_out;
     if (sim->progress) ej_progress(sim, t0, step0, psteps, false);
+    /* A stop request (SIGINT / SIGTERM in the CLI) ends the run here, between two steps: the state
+     * is whole, and it is kept below as NAME.partial with a last frame and a checkpoint. A request
+     * that arrives during the last step is too late to matter: the run is complete. */
+    if (ej_stop_request && !last) {
+      sim->stop_signal = ej_stop_request;
+      ej_stop_request = 0;
+      break;
+    }
   }
 out:
   if (sim->profile && sim->step > step0) {
@@ -1896,11 +1915,13 @@ out:
     if (ej_prof.level > 1) ej_prof_print(ns, sim->prof_loop, sim->prof_par);
   }
   if (sim->progress) ej_progress(sim, t0, step0, psteps, true);
-  /* A numerical failure keeps its state (a last frame and a checkpoint) in NAME.partial. */
-  const bool keep = rc == EJ_ERR_NUMERIC && ej_fail_keep(sim);
+  /* A numerical failure and a stopped run keep their state (a last frame and a checkpoint) in
+   * NAME.partial, from which --restart continues; only a complete run takes the final name. */
+  const bool stopped = rc == EJ_OK && sim->stop_signal != 0;
+  const bool keep = (rc == EJ_ERR_NUMERIC || stopped) && ej_fail_keep(sim);
   ej_err crc = ej_output_close(sim->out, rc == EJ_OK || keep);
   sim->out = NULL;
-  if (keep) ej_fail_rename(sim, crc);
+  if (keep || stopped) ej_fail_rename(sim, crc, !stopped);
   if (rc == EJ_OK) rc = crc;
   return rc;
 }

@@ -1,7 +1,8 @@
 /* The ejecta executable on bad input: one line FILE:LINE:COL: error: ..., exit code 2, and no
- * output file left behind. Also the good paths of check/plugins/describe/schema, and the
- * watchdog's exit code 1. */
+ * output file left behind. Also the good paths of check/plugins/describe/schema, the
+ * watchdog's exit code 1, and a run stopped by SIGINT (exit 130, state kept for --restart). */
 #include <check.h>
+#include <signal.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -200,6 +201,86 @@ START_TEST(test_info_commands)
 }
 END_TEST
 
+/* Reads a whole small file into buf (empty if missing). */
+static void slurp(const char *path, char *buf, size_t len)
+{
+  FILE *f = fopen(path, "r");
+  size_t n = f ? fread(buf, 1, len - 1, f) : 0;
+  buf[n] = 0;
+  if (f) fclose(f);
+}
+
+/* SIGINT during a run: the run stops after the step in progress with exit code 130, leaves a
+ * last frame and a checkpoint in NAME.partial (no file under the final name, no XDMF sidecar),
+ * and `--restart NAME.partial` continues it to the same state as an uninterrupted run (the same
+ * step count and, to the printed digits, the same energy balance). */
+START_TEST(test_sigint_keeps_state)
+{
+  make_tmpdir();
+  char scene[512], path[600], partial[600], xdmf[600], err[8192], out1[8192];
+  snprintf(scene, sizeof scene, "%s/long.yaml", tmpdir);
+  /* far longer than the test waits: it can only end by the signal */
+  write_file(scene, "ejecta: 1\ndimension: 1\ntime: {end: 100 s}\noutput: {file: out/r.h5, every: 1 s}\n"
+                    "materials:\n  gas: {rho0: 1.0, eos: {model: ideal_gas, gamma: 1.4}}\n"
+                    "sets:\n  tube: {method: sph, material: gas, shape: {box: {min: [0], max: [1]}}, "
+                    "spacing: 0.001, p: 1}\n");
+  snprintf(path, sizeof path, "%s/out/r.h5", tmpdir);
+  snprintf(partial, sizeof partial, "%s/out/r.h5.partial", tmpdir);
+  snprintf(xdmf, sizeof xdmf, "%s/out/r.xdmf", tmpdir);
+  char errpath[600];
+  snprintf(errpath, sizeof errpath, "%s/stderr_sig.txt", tmpdir);
+  pid_t pid = fork();
+  ck_assert_int_ge(pid, 0);
+  if (pid == 0) {
+    /* a child of a background job may inherit SIGINT ignored: the CLI keeps an ignored SIGINT */
+    signal(SIGINT, SIG_DFL);
+    if (chdir(tmpdir) != 0 || !freopen(errpath, "w", stderr) || !freopen("/dev/null", "w", stdout)) _exit(99);
+    execl(EJECTA, EJECTA, "run", scene, "--threads", "1", "--no-progress", (char *)NULL);
+    _exit(98);
+  }
+  /* the output is created after the handlers are installed: from then on SIGINT means "stop" */
+  for (int k = 0; k < 6000 && !exists(partial); ++k) usleep(10000);
+  ck_assert_msg(exists(partial), "no %s after 60 s", partial);
+  usleep(100000);
+  ck_assert_int_eq(kill(pid, SIGINT), 0);
+  int st = 0;
+  ck_assert_int_eq(waitpid(pid, &st, 0), pid);
+  slurp(errpath, err, sizeof err);
+  ck_assert_msg(WIFEXITED(st) && WEXITSTATUS(st) == 130, "status %d: %s", st, err);
+  ck_assert_msg(strstr(err, "stopped by SIGINT") && strstr(err, "--restart"), "%s", err);
+  ck_assert(exists(partial));
+  ck_assert(!exists(path)); /* only a complete run takes the final name */
+  ck_assert(!exists(xdmf));
+  /* the stop time, from "stopped by SIGINT at step N, t = T s" */
+  const char *at = strstr(err, ", t = ");
+  ck_assert_ptr_nonnull(at);
+  const double t_stop = strtod(at + 6, NULL);
+  ck_assert_msg(t_stop > 0.0 && t_stop < 100.0, "%s", err);
+  /* continue a little beyond the stop, and compare with an uninterrupted run to the same time */
+  char args[1400], end[64];
+  snprintf(end, sizeof end, "%.17g", 1.5 * t_stop + 1e-3);
+  snprintf(args, sizeof args, "run %s --threads 1 --restart out/r.h5.partial --end %s", scene, end);
+  ck_assert_msg(run(args, err, sizeof err) == 0, "%s", err);
+  ck_assert(exists(path));
+  char sout[600];
+  snprintf(sout, sizeof sout, "%s/stdout.txt", tmpdir);
+  slurp(sout, out1, sizeof out1);
+  snprintf(args, sizeof args, "run %s --threads 1 --end %s -o out/fresh.h5", scene, end);
+  ck_assert_msg(run(args, err, sizeof err) == 0, "%s", err);
+  char out2[8192];
+  slurp(sout, out2, sizeof out2);
+  const char *s1 = strstr(out1, " steps"), *s2 = strstr(out2, " steps");
+  const char *b1 = strstr(out1, "energy balance"), *b2 = strstr(out2, "energy balance");
+  ck_assert_msg(s1 && s2 && b1 && b2, "%s\n%s", out1, out2);
+  /* "(N steps": the step counts of the two runs */
+  const char *n1 = s1, *n2 = s2;
+  while (n1 > out1 && n1[-1] != '(') --n1;
+  while (n2 > out2 && n2[-1] != '(') --n2;
+  ck_assert_msg(strtol(n1, NULL, 10) == strtol(n2, NULL, 10), "%s\n%s", out1, out2);
+  ck_assert_msg(!strcmp(b1, b2), "restarted: %s\nuninterrupted: %s", b1, b2);
+}
+END_TEST
+
 int main(void)
 {
   Suite *s = suite_create("cli");
@@ -210,6 +291,7 @@ int main(void)
   tcase_add_test(tc, test_check_and_run);
   tcase_add_test(tc, test_failed_run_exit_1);
   tcase_add_test(tc, test_info_commands);
+  tcase_add_test(tc, test_sigint_keeps_state);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

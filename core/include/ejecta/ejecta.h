@@ -35,8 +35,17 @@ typedef struct ej_run_opts {
 } ej_run_opts;
 
 ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts, ej_sim **sim);
-/* Runs to the end time; EJ_ERR_NUMERIC when the watchdog stops the run. */
+/* Runs to the end time; EJ_ERR_NUMERIC when the watchdog stops the run. A run stopped by
+ * ej_sim_request_stop returns EJ_OK with ej_sim_stop_signal(sim) != 0: its output is left as
+ * NAME.partial (a last frame and a checkpoint at the stop; no XDMF sidecar), which
+ * ej_run_opts.restart (the CLI's --restart) continues. */
 ej_err ej_sim_run(ej_sim *sim);
+/* Asks the running ej_sim_run to stop after its current step. Async-signal-safe (it only sets a
+ * flag), so a SIGINT / SIGTERM handler may call it; signo is recorded (<= 0: -1). The request is
+ * consumed by the run that honours it. */
+void ej_sim_request_stop(int signo);
+/* The signal (or -1) whose request stopped the last ej_sim_run of sim before its end; 0 if none. */
+int ej_sim_stop_signal(const ej_sim *sim);
 void ej_sim_destroy(ej_sim *sim);
 
 /* Prints the current thread's error (one line for input errors) and clears it. */
