@@ -81,7 +81,7 @@ def summary_rows(t, s, st=None):
 SCRIPTS = [
     ("tlpd_throughput", ["tlpd_throughput.py"], "TL-PD, 216,000-particle DP block, m = 3 (issue 4)"),
     ("ulpd_throughput", ["ulpd_throughput.py"], "UL-PD against SPH on the same gas box (issue 3)"),
-    ("rkpm_throughput", ["rkpm_throughput.py"], "RKPM MSNNI, 195,112-node block (issue 9)"),
+    ("rkpm_throughput", ["rkpm_throughput.py"], "RKPM MSNNI, 195,112-node soil block, 003 Table 7 (issue 9)"),
     ("explosive_throughput", ["explosive_throughput.py"],
      "SPH kernel / shape tensor / UL-PD on a 97,336-particle C4 cube, plane burn; shape/kernel <= 1.5 (issue 3)"),
     ("lammps_peri", ["lammps_peri/run.py", "--no-big"], "ejecta vs LAMMPS peri/pmb and peri/lps (issue 5)"),
