@@ -132,6 +132,7 @@ static int cmd_run(int argc, char **argv, bool check_only)
   ej_registry *reg = NULL;
   ej_scene *scene = NULL;
   ej_sim *sim = NULL;
+  int stopped = 0; /* the exit code of a run stopped by a signal: 128 + the signal */
   ej_err rc;
   EJ_TRY_GOTO(rc, ej_registry_create(&reg), out);
   EJ_TRY_GOTO(rc, ej_scene_load(scene_path, reg, &scene), out);
@@ -154,10 +155,8 @@ static int cmd_run(int argc, char **argv, bool check_only)
               "%s.partial; continue with: ejecta run %s --restart %s.partial\n",
               sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a stop request", (long long)sim->step, sim->t,
               scene->t_end, sim->out_path, scene_path, sim->out_path);
-      ej_sim_destroy(sim);
-      ej_scene_destroy(scene);
-      ej_registry_destroy(reg);
-      return 128 + (sig > 0 ? sig : 0);
+      stopped = 128 + (sig > 0 ? sig : 0);
+      goto out;
     }
     printf("ejecta: wrote %s (%lld steps, %lld neighbour rebuilds, t = %g s; open %.*s.xdmf in ParaView)\n",
            sim->out_path, (long long)sim->step, (long long)sim->n_rebuilds, sim->t, (int)(strrchr(sim->out_path, '.') ? strrchr(sim->out_path, '.') - sim->out_path
@@ -184,7 +183,7 @@ out:
   ej_sim_destroy(sim);
   ej_scene_destroy(scene);
   ej_registry_destroy(reg);
-  return 0;
+  return stopped;
 }
 
 static void ej_print_warnings(void)
