@@ -1641,8 +1641,9 @@ static bool ej_fail_keep(ej_sim *sim)
   return ok;
 }
 
-/* ej_output_close(out, true) finished the file under its final name; a failed run must not leave
- * a file that looks whole, so it goes back to NAME.partial and the XDMF sidecar is removed. */
+/* ej_output_close(out, true) finished the file under its final name; a failed or stopped run must
+ * not leave a file that looks whole, so it goes back to NAME.partial and the XDMF sidecar is
+ * removed. say: print where the state is (a stopped run: the CLI says it). */
 static void ej_fail_rename(ej_sim *sim, ej_err close_rc, bool say)
 {
   if (close_rc != EJ_OK) return;

@@ -2050,7 +2050,7 @@ static inline RK_ALWAYS_INLINE ej_real rk_stab_pair(const int dim, const ej_real
             (dim > 2 ? 0.5 * (Gi[3 * (c) + 2] + Gj[(3 * (c) + 2) * gs]) * h2 : 0.0)))
   *z0 = RK_STAB_Z(0, dv0), *z1 = RK_STAB_Z(1, dv1), *z2 = RK_STAB_Z(2, dv2);
 #undef RK_STAB_Z
-  const ej_real hb = 0.5 * (ai + aj) * inv_sup;
+  const ej_real hb = abar * inv_sup;
   const ej_real hp = dim == 3 ? hb * hb : dim == 2 ? hb : 1.0;
   return alpha * 0.25 * rho_sum * c_sum * hp * ws * 2.0 / rs_sum;
 }
@@ -2172,10 +2172,10 @@ static inline RK_ALWAYS_INLINE void rk_stab_rows(const int dim, const rk_args *A
       for (int t = 0; t < nb; ++t) {
         const ej_real r2 = hb0[t] * hb0[t] + hb1[t] * hb1[t] + hb2[t] * hb2[t];
         const ej_real abar = 0.5 * (ai + ajb[t]);
-        const ej_real amax = ai > abar ? ai : abar;
         r2b[t] = r2;
-        /* rk_force_rows: skipped when r2 >= amax^2, the term only when r2 < abar^2 (abar <= amax) */
-        keep[t] = (int64_t)((r2 < amax * amax) & (r2 < abar * abar));
+        /* rk_force_rows skips r2 >= max(a_i, abar)^2 and adds the term only for r2 < abar^2: the
+         * second test implies the first */
+        keep[t] = (int64_t)(r2 < abar * abar);
       }
       int nk = 0;
       for (int t = 0; t < nb; ++t) kp[nk] = t, nk += keep[t];

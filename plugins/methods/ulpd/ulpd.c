@@ -649,16 +649,6 @@ static ej_err ulpd_family_pass(ulpd_state *s, ej_set *set, const ej_nbr *nbr, ej
 
 /* ------------------------------------------------------------------ pass 1: forces */
 
-/* rho_i a_i = sum_j V_j (omega_ij S_i + omega_ji S_j) y_ij                  (002 Eqs 1, 47)
- * plus the zero-energy-mode control, the rate form of the nonlocal-operator hourglass force of
- * 002 Eq 15 (digest sec 1.6 recommendation, applied to velocities): with z_ij = v_j - v_i -
- * L_i y_ij, the part of the velocity difference that the linear field L_i does not explain,
- *   f_ij = V_i V_j (kappa_i omega_ij z_ij + kappa_j omega_ji z~_ij),  z~_ij = v_j - v_i - L_j y_ij,
- * antisymmetric in i, j (momentum exact), zero for any linear velocity field, and dissipative:
- * the kinetic energy it removes, sum_i V_i kappa_i sum_j V_j omega_ij z_ij.(v_j - v_i), is
- * added to e_i (and w_visc_i) particle by particle, so the budget stays exact. kappa_i =
- * 2 dim c_hg rho_i c_i delta_i / tr(M_i) makes the continuum limit a kinematic viscosity
- * c_hg c delta acting on the second-order part of v. */
 /* The pair loops' result for particle i: a += f / rho, and the stabilisation heat into e and w_visc. */
 static inline ULPD_ALWAYS_INLINE void ulpd_store_force(const int dim, const bool stab, const ulpd_fields *F, ej_idx i,
                                                        ej_real f0, ej_real f1, ej_real f2, ej_real heat)
@@ -673,6 +663,16 @@ static inline ULPD_ALWAYS_INLINE void ulpd_store_force(const int dim, const bool
   }
 }
 
+/* rho_i a_i = sum_j V_j (omega_ij S_i + omega_ji S_j) y_ij                  (002 Eqs 1, 47)
+ * plus the zero-energy-mode control, the rate form of the nonlocal-operator hourglass force of
+ * 002 Eq 15 (digest sec 1.6 recommendation, applied to velocities): with z_ij = v_j - v_i -
+ * L_i y_ij, the part of the velocity difference that the linear field L_i does not explain,
+ *   f_ij = V_i V_j (kappa_i omega_ij z_ij + kappa_j omega_ji z~_ij),  z~_ij = v_j - v_i - L_j y_ij,
+ * antisymmetric in i, j (momentum exact), zero for any linear velocity field, and dissipative:
+ * the kinetic energy it removes, sum_i V_i kappa_i sum_j V_j omega_ij z_ij.(v_j - v_i), is
+ * added to e_i (and w_visc_i) particle by particle, so the budget stays exact. kappa_i =
+ * 2 dim c_hg rho_i c_i delta_i / tr(M_i) makes the continuum limit a kinematic viscosity
+ * c_hg c delta acting on the second-order part of v. */
 /* Pair loop of the forces, blocked: per block of list entries, (1) the neighbours' positions and
  * horizons are copied into local arrays and the bond lengths and the two influences computed in
  * a vectorised loop; (2) the entries with a non-zero influence are compacted (the list has a skin:
