@@ -221,6 +221,21 @@ typedef struct ej_scene_interaction {
   int set_a, set_b;
 } ej_scene_interaction;
 
+/* A probe (scene `probes:`): a point gauge fixed in space, or a tracer that follows the particle
+ * nearest to its point at t = 0; its fields go to /series/probe/<name>/ every step. */
+#define EJ_MAX_PROBE_FIELDS 16
+typedef struct ej_scene_probe {
+  char *name;
+  ej_loc loc;
+  int set;          /* set index */
+  ej_real point[3];
+  bool follow;      /* tracer: the particle nearest to point at t = 0 */
+  ej_real radius;   /* gauge: support of the weights; 0 = each particle's own search radius */
+  int n_fields;
+  char *fields[EJ_MAX_PROBE_FIELDS];
+  ej_loc field_locs[EJ_MAX_PROBE_FIELDS];
+} ej_scene_probe;
+
 typedef struct ej_scene {
   ej_doc *doc; /* kept for the verbatim text and locations */
   int dimension;
@@ -252,6 +267,8 @@ typedef struct ej_scene {
   ej_scene_bc *bcs;
   int n_interactions;
   ej_scene_interaction *interactions;
+  int n_probes;
+  ej_scene_probe *probes;
 } ej_scene;
 
 /* Loads and validates a scene, loading through reg only the plugins it names. */
@@ -487,6 +504,20 @@ typedef struct ej_reports {
 
 typedef struct ej_output ej_output;
 
+/* A probe at run time (sim.c "Probes"): its columns, /series/probe/<name>/<col_name>. */
+#define EJ_MAX_PROBE_COLS (3 + 9 * EJ_MAX_PROBE_FIELDS)
+typedef struct ej_probe {
+  const ej_scene_probe *sp;
+  ej_set *set;
+  char owner[48];                /* "probe/<name>" */
+  int n_cols;
+  int col_field[EJ_MAX_PROBE_COLS]; /* field index; -1: the tracer's position or the gauge's count */
+  int col_comp[EJ_MAX_PROBE_COLS];
+  char col_name[EJ_MAX_PROBE_COLS][40];
+  int32_t id; /* tracer: the particle id it follows */
+  ej_idx at;  /* tracer: the index where that id was last found */
+} ej_probe;
+
 /* One thread's block of chunks in ej_for_chunks's affinity schedule: the next chunk to take and
  * the block's end, 128 bytes apart so that two counters never share a cache line (the owner's is
  * not shared until others steal), whatever the alignment of the allocation. */
@@ -516,6 +547,8 @@ struct ej_sim {
   /* diagnostics */
   ej_energy energy;
   ej_reports reports;
+  int n_probes;
+  ej_probe *probes; /* [scene->n_probes] */
   /* output */
   ej_output *out;
   char *out_path;

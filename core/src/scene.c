@@ -67,7 +67,7 @@ static const ej_param ej_top_params[] = {
     EJ_PARAM_BLOCK(ej_top_cfg, neighbours, ej_neigh_params, ej_neigh_cfg, 0, "Neighbour search settings."),
     {0}};
 static const char *const ej_top_manual[] = {"output", "gravity", "materials", "sets", "interactions", "boundaries",
-                                            "domain", NULL};
+                                            "domain", "probes", NULL};
 
 typedef struct ej_output_cfg {
   const char *file;
@@ -83,6 +83,28 @@ static const ej_param ej_output_params[] = {
                   "Interval between checkpoints; 0 = at the end only."),
     {0}};
 static const char *const ej_output_manual[] = {"fields", NULL};
+
+/* Probes (DESIGN.md "Diagnostics": point gauges as time series; docs/core.md "Probes"). */
+typedef struct ej_probe_cfg {
+  const char *name;
+  bool follow;
+  ej_real radius;
+} ej_probe_cfg;
+
+static const ej_param ej_probe_params[] = {
+    EJ_PARAM_STRING(ej_probe_cfg, name, NULL, 0,
+                    "Name (letters, digits, _ . -): the series are /series/probe/<name>/<column>; default probe<k>, "
+                    "k = its place in the list from 0."),
+    EJ_PARAM_BOOL(ej_probe_cfg, follow, false,
+                  "false: a gauge fixed in space, each field the Shepard average (cubic-spline weights, particle "
+                  "volumes) over the set's particles whose support covers the point, NaN where none does; true: a "
+                  "tracer, the fields of the particle nearest to the point at t = 0 wherever it goes, and its "
+                  "position."),
+    EJ_PARAM_REAL(ej_probe_cfg, radius, "m", 0, 0, 0, EJ_PF_HAS_MIN,
+                  "Gauge only: support radius of the weights; 0 = each particle's own neighbour-search radius "
+                  "(sph: 2 h; peridynamics: the horizon)."),
+    {0}};
+static const char *const ej_probe_manual[] = {"set", "point", "fields", NULL};
 
 typedef struct ej_mat_cfg {
   ej_real rho0;
@@ -696,6 +718,69 @@ static ej_err ej_parse_bc(ej_loader *L, int index, ej_scene_bc *bc, const ej_nod
   return EJ_OK;
 }
 
+/* ------------------------------------------------------------------ probes */
+
+static ej_err ej_parse_probe(ej_loader *L, int k, const ej_node *n)
+{
+  ej_scene *sc = L->sc;
+  ej_scene_probe *p = &sc->probes[k];
+  EJ_TRY(ej_expect_map(n, "a probe"));
+  p->loc = n->loc;
+  p->set = -1;
+  ej_probe_cfg cfg = {0};
+  EJ_TRY(ej_params_apply(ej_probe_params, &cfg, n, "probe", ej_probe_manual, NULL));
+  const ej_node *set = ej_node_get(n, "set"), *pt = ej_node_get(n, "point"), *fields = ej_node_get(n, "fields");
+  if (!set) return ej_error_input(&n->loc, "a probe needs 'set': the name of the particle set it reads");
+  EJ_TRY(ej_set_ref(L, set, "probe", &p->set));
+  if (!pt) return ej_error_input(&n->loc, "a probe needs 'point': where it measures, e.g. [1 m, 0, 0]");
+  EJ_TRY(ej_node_vector(pt, sc->dimension, "m", p->point));
+  if (!fields)
+    return ej_error_input(&n->loc, "a probe needs 'fields': a list of its set's field names, e.g. [p, rho, v]");
+  if (fields->type != EJ_NODE_SEQ || fields->n == 0)
+    return ej_error_input(&fields->loc, "probe fields must be a non-empty list of field names, got %s",
+                          fields->type == EJ_NODE_SEQ ? "an empty list" : ej_kind_word(fields));
+  if (fields->n > EJ_MAX_PROBE_FIELDS)
+    return ej_error_input(&fields->items[EJ_MAX_PROBE_FIELDS]->loc, "a probe records at most %d fields",
+                          EJ_MAX_PROBE_FIELDS);
+  for (int f = 0; f < fields->n; ++f) {
+    const char *name = NULL;
+    EJ_TRY(ej_expect_word(fields->items[f], "a probe field", &name));
+    for (int g = 0; g < p->n_fields; ++g)
+      if (!strcmp(p->fields[g], name))
+        return ej_error_input(&fields->items[f]->loc, "probe field '%s' is listed twice", name);
+    p->fields[f] = ej_strdup(name);
+    EJ_ENSURE(p->fields[f], EJ_ERR_MEM, "out of memory");
+    p->field_locs[f] = fields->items[f]->loc;
+    p->n_fields = f + 1;
+  }
+  p->follow = cfg.follow;
+  p->radius = cfg.radius;
+  const ej_node *rn = ej_node_get(n, "radius");
+  if (p->follow && rn)
+    return ej_error_input(&rn->loc, "radius applies to a gauge (follow: false); a tracer reads its own particle");
+  const ej_node *nn = ej_node_get(n, "name");
+  if (cfg.name) {
+    bool ok = cfg.name[0] != 0 && strlen(cfg.name) <= 32;
+    for (const char *c = cfg.name; *c; ++c)
+      ok = ok && ((*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') || (*c >= '0' && *c <= '9') || *c == '_' ||
+                  *c == '.' || *c == '-');
+    if (!ok)
+      return ej_error_input(&nn->loc, "probe name '%s': expected 1 to 32 letters, digits, '_', '.' or '-'",
+                            cfg.name);
+    p->name = ej_strdup(cfg.name);
+  } else {
+    char buf[32];
+    snprintf(buf, sizeof buf, "probe%d", k);
+    p->name = ej_strdup(buf);
+  }
+  EJ_ENSURE(p->name, EJ_ERR_MEM, "out of memory");
+  for (int j = 0; j < k; ++j)
+    if (!strcmp(sc->probes[j].name, p->name))
+      return ej_error_input(nn ? &nn->loc : &n->loc, "probe name '%s' is used twice (first at line %d)", p->name,
+                            sc->probes[j].loc.line);
+  return EJ_OK;
+}
+
 /* ------------------------------------------------------------------ top level */
 
 static ej_err ej_parse_output(ej_loader *L, const ej_node *out)
@@ -834,6 +919,18 @@ static ej_err ej_scene_parse(ej_loader *L)
     sc->n_bcs = bcs->n;
     for (int k = 0; k < bcs->n; ++k) EJ_TRY(ej_parse_bc(L, k, &sc->bcs[k], bcs->items[k]));
   }
+
+  const ej_node *probes = ej_node_get(root, "probes");
+  if (probes) {
+    if (probes->type != EJ_NODE_SEQ)
+      return ej_error_input(&probes->loc, "probes must be a list, got %s", ej_kind_word(probes));
+    sc->probes = ej_calloc((size_t)(probes->n > 0 ? probes->n : 1), sizeof *sc->probes);
+    EJ_ENSURE(sc->probes, EJ_ERR_MEM, "out of memory");
+    for (int k = 0; k < probes->n; ++k) {
+      sc->n_probes = k + 1;
+      EJ_TRY(ej_parse_probe(L, k, probes->items[k]));
+    }
+  }
   return EJ_OK;
 }
 
@@ -918,6 +1015,11 @@ void ej_scene_free(ej_scene *sc)
   ej_free(sc->interactions);
   for (int k = 0; k < sc->n_output_fields; ++k) ej_free(sc->output_fields[k]);
   ej_free(sc->output_fields);
+  for (int k = 0; k < sc->n_probes; ++k) {
+    ej_free(sc->probes[k].name);
+    for (int f = 0; f < sc->probes[k].n_fields; ++f) ej_free(sc->probes[k].fields[f]);
+  }
+  ej_free(sc->probes);
   ej_free(sc->output_field_locs);
   ej_free(sc->output_file);
   ej_doc_destroy(sc->doc);
@@ -1233,7 +1335,10 @@ static ej_err ej_schema_compact(ej_registry *reg, ej_buf *b)
                           "\"#/$defs/set\"}},"
                           "\"interactions\":{\"type\":\"array\",\"items\":{\"$ref\":\"#/$defs/interaction\"}},"
                           "\"boundaries\":{\"type\":\"array\",\"maxItems\":%d,\"items\":{\"$ref\":"
-                          "\"#/$defs/boundary\"}}},\"$defs\":{\"scene_core\":",
+                          "\"#/$defs/boundary\"}},"
+                          "\"probes\":{\"type\":\"array\",\"items\":{\"$ref\":\"#/$defs/probe\"},"
+                          "\"description\":\"Point gauges and tracers, written every step to /series/probe/<name>/.\"}"
+                          "},\"$defs\":{\"scene_core\":",
                        EJ_MAX_BCS));
   EJ_TRY(ej_params_schema(b, ej_top_params, ej_top_manual));
   EJ_TRY(ej_buf_printf(b, ","));
@@ -1241,6 +1346,15 @@ static ej_err ej_schema_compact(ej_registry *reg, ej_buf *b)
   EJ_TRY(ej_buf_printf(b, "%s", ej_schema_bc_head));
   EJ_TRY(ej_params_schema(b, ej_periodic_params, NULL));
   EJ_TRY(ej_buf_printf(b, "}}]},"));
+  EJ_TRY(ej_buf_printf(b, "\"probe\":{\"allOf\":["));
+  EJ_TRY(ej_params_schema(b, ej_probe_params, ej_probe_manual));
+  EJ_TRY(ej_buf_printf(b, ",{\"required\":[\"set\",\"point\",\"fields\"],\"properties\":{"
+                          "\"set\":{\"type\":\"string\",\"description\":\"The particle set it reads.\"},"
+                          "\"point\":{\"$ref\":\"#/$defs/vector\",\"description\":\"Gauge point, or (follow) the "
+                          "point whose nearest particle at t = 0 is followed (m).\"},"
+                          "\"fields\":{\"type\":\"array\",\"minItems\":1,\"maxItems\":%d,\"items\":{\"type\":"
+                          "\"string\"},\"description\":\"Fields of the set, one column per component.\"}}}]},",
+                       EJ_MAX_PROBE_FIELDS));
   EJ_TRY(ej_schema_materials(b, reg));
   EJ_TRY(ej_buf_printf(b, ","));
   EJ_TRY(ej_schema_sets(b, reg));

@@ -1444,6 +1444,168 @@ static ej_err ej_reports_add(ej_sim *sim, const char *owner, const ej_series_val
   return EJ_OK;
 }
 
+/* ------------------------------------------------------------------ probes
+ *
+ * A probe (scene `probes:`, docs/core.md "Probes") adds columns to the step's series, after the
+ * plugins' reports: /series/probe/<name>/<column>, one row per step like the energy budget.
+ *   gauge (follow: false): a point fixed in space. Each column is the Shepard average
+ *     sum_j w_j f_j / sum_j w_j over the set's owned particles j whose support covers the point,
+ *     w_j = V_j f(q) / h_j^dim with the cubic spline f (f(0) = 1, zero from q = 2 on), h_j = R_j / 2,
+ *     R_j the particle's search radius (or the probe's radius), q = |x_j - point| / h_j and V_j
+ *     its volume (m/rho, else vol, else vol0, else 1). It reproduces a constant exactly, and a
+ *     linear field where the particles lie symmetrically about the point. Column `count`: the
+ *     number of particles with w_j > 0; the fields are NaN when it is 0 (no material there).
+ *     Ghosts are not used: a gauge on a symmetry plane averages one side of it.
+ *   tracer (follow: true): the particle nearest to the point in the initial state (the smaller id
+ *     on a tie), found again by its id after every re-sort; columns its position, then its fields.
+ * One serial pass over the set per gauge and step, in particle order: the values do not depend on
+ * the thread count. The tracer's particle is chosen from the scene's initial state before any
+ * restart reads a checkpoint, so a restarted run follows the same particle. */
+
+static const char *const ej_comp_vec[] = {"x", "y", "z"};
+static const char *const ej_comp_sym[] = {"xx", "yy", "zz", "xy", "yz", "zx"};
+static const char *const ej_comp_t9[] = {"xx", "xy", "xz", "yx", "yy", "yz", "zx", "zy", "zz"};
+
+static ej_err ej_probe_cols(ej_probe *P, int dim)
+{
+  const ej_scene_probe *sp = P->sp;
+  const ej_set *s = P->set;
+  int c = 0;
+  if (sp->follow)
+    for (int d = 0; d < dim; ++d, ++c) {
+      P->col_field[c] = -1, P->col_comp[c] = d;
+      snprintf(P->col_name[c], sizeof P->col_name[c], "%s", ej_comp_vec[d]);
+    }
+  else {
+    P->col_field[c] = -1, P->col_comp[c] = 0;
+    snprintf(P->col_name[c], sizeof P->col_name[c], "count");
+    ++c;
+  }
+  for (int k = 0; k < sp->n_fields; ++k) {
+    const int f = ej_set_find_field(s, sp->fields[k]);
+    if (f < 0) {
+      const char *cands[EJ_MAX_FIELDS];
+      for (int j = 0; j < s->n_fields; ++j) cands[j] = s->fields[j].name;
+      const char *near = ej_nearest_word(sp->fields[k], cands, s->n_fields);
+      if (near)
+        return ej_error_input(&sp->field_locs[k], "probe '%s': set '%s' has no field '%s'; did you mean '%s'?",
+                              sp->name, s->name, sp->fields[k], near);
+      return ej_error_input(&sp->field_locs[k], "probe '%s': set '%s' has no field '%s' ('ejecta describe %s' "
+                            "lists the method's fields)", sp->name, s->name, sp->fields[k], s->mops->name);
+    }
+    const ej_field_kind kind = s->fields[f].kind;
+    const int nc = kind == EJ_VEC3 ? dim : kind == EJ_INT ? 1 : (int)kind;
+    EJ_ENSURE(c + nc <= EJ_MAX_PROBE_COLS, EJ_ERR_INTERNAL, "probe '%s': too many columns", sp->name);
+    for (int q = 0; q < nc; ++q, ++c) {
+      P->col_field[c] = f, P->col_comp[c] = q;
+      if (kind == EJ_SCALAR || kind == EJ_INT) snprintf(P->col_name[c], sizeof P->col_name[c], "%s", sp->fields[k]);
+      else
+        snprintf(P->col_name[c], sizeof P->col_name[c], "%s_%s", sp->fields[k],
+                 kind == EJ_VEC3 ? ej_comp_vec[q] : kind == EJ_SYM6 ? ej_comp_sym[q] : ej_comp_t9[q]);
+    }
+  }
+  P->n_cols = c;
+  return EJ_OK;
+}
+
+/* Probes from the scene: columns, and each tracer's particle, from the sets as generated (before
+ * any sort or restart). Input errors (an unknown field, a gauge without a radius) exit 2. */
+static ej_err ej_probes_setup(ej_sim *sim)
+{
+  const ej_scene *sc = sim->scene;
+  if (sc->n_probes == 0) return EJ_OK;
+  sim->probes = ej_calloc((size_t)sc->n_probes, sizeof *sim->probes);
+  EJ_ENSURE(sim->probes, EJ_ERR_MEM, "out of memory");
+  sim->n_probes = sc->n_probes;
+  int cols = 0;
+  for (int k = 0; k < sc->n_probes; ++k) {
+    ej_probe *P = &sim->probes[k];
+    const ej_scene_probe *sp = &sc->probes[k];
+    P->sp = sp;
+    P->set = sim->sets[sp->set];
+    snprintf(P->owner, sizeof P->owner, "probe/%s", sp->name);
+    EJ_TRY(ej_probe_cols(P, sim->dim));
+    cols += P->n_cols;
+    const ej_set *s = P->set;
+    if (!sp->follow && sp->radius <= 0 && !EJ_HAS_OP(s->mops, ej_method_ops, support))
+      return ej_error_input(&sp->loc, "probe '%s': set '%s' (method %s) has no search radius; give the probe a "
+                            "radius", sp->name, s->name, s->mops->name);
+    if (sp->follow) {
+      EJ_ENSURE(s->n > 0, EJ_ERR_INTERNAL, "set '%s' is empty", s->name);
+      const ej_real *x = s->fields[s->f_x].data;
+      const int32_t *id = s->fields[s->f_id].data;
+      ej_real best = INFINITY;
+      for (ej_idx j = 0; j < s->n; ++j) {
+        ej_real r2 = 0;
+        for (int d = 0; d < sim->dim; ++d) r2 += (x[3 * j + d] - sp->point[d]) * (x[3 * j + d] - sp->point[d]);
+        if (r2 < best || (r2 == best && id[j] < P->id)) best = r2, P->id = id[j], P->at = j;
+      }
+    }
+  }
+  /* the series table holds EJ_MAX_REPORTS columns, the plugins' reports included */
+  if (cols > EJ_MAX_REPORTS / 2)
+    return ej_error_input(&sc->probes[0].loc, "the probes record %d columns in all; at most %d fit", cols,
+                          EJ_MAX_REPORTS / 2);
+  return EJ_OK;
+}
+
+static ej_real ej_probe_value(const ej_set *s, int f, int q, ej_idx j)
+{
+  const ej_field *F = &s->fields[f];
+  if (F->kind == EJ_INT) return (ej_real)((const int32_t *)F->data)[j];
+  const int nc = (int)F->kind;
+  return ((const ej_real *)F->data)[(size_t)nc * j + (size_t)q];
+}
+
+/* The cubic spline's shape, f(0) = 1 (the normalisation cancels in the Shepard average but for
+ * the 1/h^dim of particles with different supports, applied by the caller). */
+static ej_real ej_probe_kernel(ej_real q)
+{
+  if (q < 1) return 1 - 1.5 * q * q + 0.75 * q * q * q;
+  if (q < 2) return 0.25 * (2 - q) * (2 - q) * (2 - q);
+  return 0;
+}
+
+static void ej_probe_eval(ej_probe *P, int dim, ej_real *out)
+{
+  const ej_set *s = P->set;
+  const ej_scene_probe *sp = P->sp;
+  const ej_real *x = s->fields[s->f_x].data;
+  if (sp->follow) {
+    const int32_t *id = s->fields[s->f_id].data;
+    if (!(P->at < s->n && id[P->at] == P->id))
+      for (ej_idx j = 0; j < s->n; ++j)
+        if (id[j] == P->id) {
+          P->at = j;
+          break;
+        }
+    const ej_idx j = P->at;
+    for (int c = 0; c < P->n_cols; ++c)
+      out[c] = P->col_field[c] < 0 ? x[3 * j + P->col_comp[c]] : ej_probe_value(s, P->col_field[c], P->col_comp[c], j);
+    return;
+  }
+  const int fr = ej_set_find_field(s, "rho"), fv = ej_set_find_field(s, "vol");
+  const ej_real *m = s->f_m >= 0 ? s->fields[s->f_m].data : NULL, *rho = fr >= 0 ? s->fields[fr].data : NULL;
+  const ej_real *vol = fv >= 0 ? s->fields[fv].data : s->f_vol0 >= 0 ? s->fields[s->f_vol0].data : NULL;
+  const ej_real *R = s->radius;
+  ej_real wsum = 0;
+  int64_t count = 0;
+  for (int c = 1; c < P->n_cols; ++c) out[c] = 0;
+  for (ej_idx j = 0; j < s->n; ++j) {
+    ej_real r2 = 0;
+    for (int d = 0; d < dim; ++d) r2 += (x[3 * j + d] - sp->point[d]) * (x[3 * j + d] - sp->point[d]);
+    const ej_real Rj = sp->radius > 0 ? sp->radius : R ? R[j] : 0;
+    if (!(r2 < Rj * Rj)) continue;
+    const ej_real h = 0.5 * Rj, V = m && rho && rho[j] > 0 ? m[j] / rho[j] : vol ? vol[j] : 1.0;
+    const ej_real w = V * ej_probe_kernel(sqrt(r2) / h) / (dim == 1 ? h : dim == 2 ? h * h : h * h * h);
+    if (!(w > 0)) continue;
+    wsum += w, ++count;
+    for (int c = 1; c < P->n_cols; ++c) out[c] += w * ej_probe_value(s, P->col_field[c], P->col_comp[c], j);
+  }
+  out[0] = (ej_real)count;
+  for (int c = 1; c < P->n_cols; ++c) out[c] = wsum > 0 ? out[c] / wsum : NAN;
+}
+
 /* Series of every method and interaction; returns the plugins' net external work. */
 static ej_err ej_reports_collect(ej_sim *sim, ej_real *ext)
 {
@@ -1467,6 +1629,14 @@ static ej_err ej_reports_collect(ej_sim *sim, ej_real *ext)
     char owner[80];
     snprintf(owner, sizeof owner, "%s_%d", in->ops->name, k);
     EJ_TRY(ej_reports_add(sim, owner, v, n, &slot, ext));
+  }
+  for (int k = 0; k < sim->n_probes; ++k) {
+    ej_probe *P = &sim->probes[k];
+    ej_real val[EJ_MAX_PROBE_COLS];
+    ej_series_value pv[EJ_MAX_PROBE_COLS];
+    ej_probe_eval(P, sim->dim, val);
+    for (int c = 0; c < P->n_cols; ++c) pv[c] = (ej_series_value){.name = P->col_name[c], .value = val[c]};
+    EJ_TRY(ej_reports_add(sim, P->owner, pv, P->n_cols, &slot, ext));
   }
   EJ_ENSURE(!sim->reports.fixed || slot == sim->reports.n, EJ_ERR_PLUGIN, "a plugin changed its reported series");
   sim->reports.fixed = true;
@@ -1751,6 +1921,7 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
     EJ_TRY_GOTO(rc, ej_located(in->ops->create(in->config, in->a, in->b, &in->state), &si->loc), out_destroy);
     in->pre_slot = ej_inter_pre_slot(in);
   }
+  EJ_TRY_GOTO(rc, ej_probes_setup(sim), out_destroy);
   const char *path = opts && opts->output ? opts->output : scene->output_file;
   sim->out_path = ej_strdup(path);
   EJ_ENSURE(sim->out_path, EJ_ERR_MEM, "out of memory");
@@ -1945,6 +2116,7 @@ void ej_sim_destroy(ej_sim *sim)
   ej_free(sim->sets);
   ej_models_destroy(sim);
   ej_free(sim->chunk_scratch);
+  ej_free(sim->probes);
   ej_free(sim->out_path);
   ej_free(sim);
 }

@@ -365,6 +365,47 @@ START_TEST(test_bad_misc)
 }
 END_TEST
 
+/* probes: (docs/core.md "Probes"); the fields are checked against the sets later (test_probes) */
+START_TEST(test_probes_parse)
+{
+  ej_scene *sc = load_ok(HEAD SET_OK "probes:\n  - {name: g1, set: gas, point: [0.5, 0.5, 20 cm], fields: [p, v]}\n"
+                                     "  - {set: gas, point: [0.1, 0.1, 0.1], follow: true, fields: [rho]}\n"
+                                     "  - {set: gas, point: [0.3, 0, 0], radius: 5 cm, fields: [e]}\n");
+  ck_assert_int_eq(sc->n_probes, 3);
+  ck_assert_str_eq(sc->probes[0].name, "g1");
+  ck_assert_int_eq(sc->probes[0].set, 0);
+  ck_assert_double_eq(sc->probes[0].point[2], 0.2);
+  ck_assert(!sc->probes[0].follow);
+  ck_assert_int_eq(sc->probes[0].n_fields, 2);
+  ck_assert_str_eq(sc->probes[0].fields[1], "v");
+  ck_assert_str_eq(sc->probes[1].name, "probe1");
+  ck_assert(sc->probes[1].follow);
+  ck_assert_double_eq(sc->probes[2].radius, 0.05);
+  ej_scene_destroy(sc);
+}
+END_TEST
+
+START_TEST(test_bad_probes)
+{
+  load_bad(HEAD SET_OK "probes:\n  - {set: gsa, point: [0, 0, 0], fields: [p]}\n", "undefined set 'gsa'; did you mean 'gas'?",
+           8, 11);
+  load_bad(HEAD SET_OK "probes:\n  - {set: gas, fields: [p]}\n", "a probe needs 'point'", 8, 5);
+  load_bad(HEAD SET_OK "probes:\n  - {set: gas, point: [0, 0, 0]}\n", "a probe needs 'fields'", 8, 5);
+  load_bad(HEAD SET_OK "probes:\n  - {set: gas, point: [0, 0, 0], fields: []}\n", "non-empty list", 8, 42);
+  load_bad(HEAD SET_OK "probes:\n  - {set: gas, point: [0, 0, 0], fields: [p, p]}\n", "'p' is listed twice", 8, 46);
+  load_bad(HEAD SET_OK "probes:\n  - {name: a/b, set: gas, point: [0, 0, 0], fields: [p]}\n",
+           "expected 1 to 32 letters, digits", 8, 12);
+  load_bad(HEAD SET_OK "probes:\n  - {name: g, set: gas, point: [0, 0, 0], fields: [p]}\n"
+                       "  - {name: g, set: gas, point: [1, 0, 0], fields: [p]}\n",
+           "probe name 'g' is used twice (first at line 8)", 9, 12);
+  load_bad(HEAD SET_OK "probes:\n  - {set: gas, point: [0, 0, 0], follow: true, radius: 1 cm, fields: [p]}\n",
+           "radius applies to a gauge", 8, 56);
+  load_bad(HEAD SET_OK "probes:\n  - {set: gas, point: [0, 0, 0], fields: [p], every: 1}\n", "unknown key 'every'", 8, 47);
+  load_bad(HEAD SET_OK "probes: {set: gas}\n", "probes must be a list", 7, 9);
+  load_bad(HEAD SET_OK "probes:\n  - {set: gas, point: [0, 0, 0], radius: -1, fields: [p]}\n", "radius", 8, 42);
+}
+END_TEST
+
 /* ------------------------------------------------------------------ schema */
 
 START_TEST(test_schema)
@@ -412,6 +453,7 @@ int main(void)
   tcase_add_checked_fixture(tc, setup, teardown);
   tcase_add_test(tc, test_valid_full);
   tcase_add_test(tc, test_valid_minimal_2d_csv);
+  tcase_add_test(tc, test_probes_parse);
   tcase_add_test(tc, test_schema);
   suite_add_tcase(s, tc);
   tc = tcase_create("bad_input");
@@ -427,6 +469,7 @@ int main(void)
   tcase_add_test(tc, test_bad_material_ref);
   tcase_add_test(tc, test_bad_missing_file);
   tcase_add_test(tc, test_bad_misc);
+  tcase_add_test(tc, test_bad_probes);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
