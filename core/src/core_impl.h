@@ -252,6 +252,7 @@ typedef struct ej_scene {
   ej_loc output_loc;
   ej_real output_every;     /* 0: first and last frame only */
   ej_real checkpoint_every; /* 0: only at the end */
+  bool set_series;          /* per-set energy and momentum series (output.set_series) */
   int n_output_fields;      /* 0 = every EJ_FIELD_OUTPUT field */
   char **output_fields;
   ej_loc *output_field_locs;
@@ -549,6 +550,7 @@ struct ej_sim {
   ej_reports reports;
   int n_probes;
   ej_probe *probes; /* [scene->n_probes] */
+  ej_real (*set_sums)[8]; /* output.set_series: each set's energy and momentum sums (EJ_NRED) of the step */
   /* output */
   ej_output *out;
   char *out_path;

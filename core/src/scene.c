@@ -72,6 +72,7 @@ static const char *const ej_top_manual[] = {"output", "gravity", "materials", "s
 typedef struct ej_output_cfg {
   const char *file;
   ej_real every, checkpoint_every;
+  bool set_series;
 } ej_output_cfg;
 
 static const ej_param ej_output_params[] = {
@@ -81,6 +82,9 @@ static const ej_param ej_output_params[] = {
                   "Interval between frames; 0 = first and last frame only."),
     EJ_PARAM_REAL(ej_output_cfg, checkpoint_every, "s", 0, 0, 0, EJ_PF_HAS_MIN,
                   "Interval between checkpoints; 0 = at the end only."),
+    EJ_PARAM_BOOL(ej_output_cfg, set_series, false,
+                  "Per-set energy budget and momentum every step, /series/set/<set>/<column> (kinetic, internal, "
+                  "viscous, plastic, hourglass, momentum_x/y/z; LS-DYNA's MATSUM): they add up to /series/energy."),
     {0}};
 static const char *const ej_output_manual[] = {"fields", NULL};
 
@@ -796,6 +800,7 @@ static ej_err ej_parse_output(ej_loader *L, const ej_node *out)
   }
   sc->output_every = cfg.every;
   sc->checkpoint_every = cfg.checkpoint_every;
+  sc->set_series = cfg.set_series;
   if (cfg.file && cfg.file[0]) {
     sc->output_file = ej_strdup(cfg.file);
   } else {

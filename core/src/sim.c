@@ -17,7 +17,8 @@
 #include "core_impl.h"
 
 #define EJ_CHUNK 512
-#define EJ_NRED 8 /* energy reduction slots per chunk */
+#define EJ_NRED 8 /* energy reduction slots per chunk (ej_sim.set_sums has as many) */
+_Static_assert(sizeof(((ej_sim *)0)->set_sums[0]) == EJ_NRED * sizeof(ej_real), "set_sums rows hold EJ_NRED sums");
 /* per-chunk scratch: EJ_NRED energy sums, then the step's work, then the watchdog's result */
 #define EJ_S_WORK EJ_NRED
 #define EJ_S_BADP (EJ_NRED + 1)
@@ -1513,6 +1514,13 @@ static ej_err ej_probe_cols(ej_probe *P, int dim)
 static ej_err ej_probes_setup(ej_sim *sim)
 {
   const ej_scene *sc = sim->scene;
+  if (sc->set_series) {
+    if (EJ_NRED * sim->n_sets > EJ_MAX_REPORTS / 2)
+      return ej_error_input(&sc->output_loc, "output set_series: %d sets make %d columns; at most %d fit", sim->n_sets,
+                            EJ_NRED * sim->n_sets, EJ_MAX_REPORTS / 2);
+    sim->set_sums = ej_calloc((size_t)sim->n_sets, sizeof *sim->set_sums);
+    EJ_ENSURE(sim->set_sums, EJ_ERR_MEM, "out of memory");
+  }
   if (sc->n_probes == 0) return EJ_OK;
   sim->probes = ej_calloc((size_t)sc->n_probes, sizeof *sim->probes);
   EJ_ENSURE(sim->probes, EJ_ERR_MEM, "out of memory");
@@ -1543,9 +1551,10 @@ static ej_err ej_probes_setup(ej_sim *sim)
     }
   }
   /* the series table holds EJ_MAX_REPORTS columns, the plugins' reports included */
-  if (cols > EJ_MAX_REPORTS / 2)
-    return ej_error_input(&sc->probes[0].loc, "the probes record %d columns in all; at most %d fit", cols,
-                          EJ_MAX_REPORTS / 2);
+  const int set_cols = sim->set_sums ? EJ_NRED * sim->n_sets : 0;
+  if (cols + set_cols > EJ_MAX_REPORTS / 2)
+    return ej_error_input(&sc->probes[0].loc, "the probes record %d columns in all (and output set_series %d); at "
+                          "most %d fit", cols, set_cols, EJ_MAX_REPORTS / 2);
   return EJ_OK;
 }
 
@@ -1637,6 +1646,17 @@ static ej_err ej_reports_collect(ej_sim *sim, ej_real *ext)
     ej_probe_eval(P, sim->dim, val);
     for (int c = 0; c < P->n_cols; ++c) pv[c] = (ej_series_value){.name = P->col_name[c], .value = val[c]};
     EJ_TRY(ej_reports_add(sim, P->owner, pv, P->n_cols, &slot, ext));
+  }
+  if (sim->set_sums) { /* output.set_series, in the order of EJ_R_* */
+    static const char *const cols[EJ_NRED] = {"kinetic", "internal", "viscous", "plastic", "hourglass",
+                                              "momentum_x", "momentum_y", "momentum_z"};
+    for (int i = 0; i < sim->n_sets; ++i) {
+      ej_series_value sv[EJ_NRED];
+      for (int k = 0; k < EJ_NRED; ++k) sv[k] = (ej_series_value){.name = cols[k], .value = sim->set_sums[i][k]};
+      char owner[80];
+      snprintf(owner, sizeof owner, "set/%s", sim->sets[i]->name);
+      EJ_TRY(ej_reports_add(sim, owner, sv, EJ_NRED, &slot, ext));
+    }
   }
   EJ_ENSURE(!sim->reports.fixed || slot == sim->reports.n, EJ_ERR_PLUGIN, "a plugin changed its reported series");
   sim->reports.fixed = true;
@@ -1751,10 +1771,15 @@ static void ej_diag_init(ej_diag_acc *A)
 static void ej_diag_add(const ej_sim *sim, const ej_set *s, bool with_work, ej_diag_acc *A)
 {
   const int64_t nch = ej_chunk_count(s);
+  ej_real *ps = sim->set_sums ? sim->set_sums[s->index] : NULL; /* output.set_series */
+  if (ps)
+    for (int k = 0; k < EJ_NRED; ++k) ps[k] = 0;
   for (int64_t c = 0; c < nch; ++c) {
     const ej_real *cs = sim->chunk_scratch + c * EJ_NSLOT;
     if (with_work) A->work += cs[EJ_S_WORK];
     for (int k = 0; k < EJ_NRED; ++k) A->tot[k] += cs[k];
+    if (ps)
+      for (int k = 0; k < EJ_NRED; ++k) ps[k] += cs[k];
     if (!A->bad_set && cs[EJ_S_BADP] >= 0) A->bad_set = s, A->bad = (ej_idx)cs[EJ_S_BADP], A->bad_f = (int)cs[EJ_S_BADF];
   }
 }
@@ -2117,6 +2142,7 @@ void ej_sim_destroy(ej_sim *sim)
   ej_models_destroy(sim);
   ej_free(sim->chunk_scratch);
   ej_free(sim->probes);
+  ej_free(sim->set_sums);
   ej_free(sim->out_path);
   ej_free(sim);
 }

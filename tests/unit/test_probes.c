@@ -182,6 +182,58 @@ START_TEST(test_threads_and_restart)
 }
 END_TEST
 
+/* output.set_series: each set's energy and momentum (LS-DYNA's MATSUM) add up to the run's, and its
+ * kinetic energy and momentum are those of its particles. */
+START_TEST(test_set_series)
+{
+  char dir[64], scene[128];
+  vrun_dir(dir, sizeof dir, "set_series");
+  snprintf(scene, sizeof scene, "%s/s.yaml", dir);
+  vrun_write(scene, "ejecta: 1\n"
+                    "dimension: 3\n"
+                    "time: {end: 1, cfl: 0.3, max_steps: 10}\n"
+                    "output: {file: out.h5, set_series: true}\n"
+                    "materials:\n"
+                    "  gas: {rho0: 1, eos: {model: ideal_gas, gamma: 1.4}}\n"
+                    "sets:\n"
+                    "  hot:\n"
+                    "    {method: sph, material: gas, shape: {box: {min: [0, 0, 0], max: [0.3, 0.3, 0.3]}}, spacing: 0.05, "
+                    "p: 10, velocity: [1, 0, 0]}\n"
+                    "  cold:\n"
+                    "    {method: sph, material: gas, shape: {box: {min: [0.5, 0, 0], max: [0.8, 0.3, 0.3]}}, spacing: "
+                    "0.05, p: 1}\n");
+  vrun r;
+  open_run(&r, dir, scene, "a.h5", 2, NULL);
+  vrun_run(&r);
+  const ej_energy *E = &r.sim->energy;
+  const double kin = series(r.sim, "set/hot/kinetic") + series(r.sim, "set/cold/kinetic");
+  const double in = series(r.sim, "set/hot/internal") + series(r.sim, "set/cold/internal");
+  const double px = series(r.sim, "set/hot/momentum_x") + series(r.sim, "set/cold/momentum_x");
+  const double visc = series(r.sim, "set/hot/viscous") + series(r.sim, "set/cold/viscous");
+  ck_assert_double_eq_tol(kin, E->kinetic, 1e-13 * E->kinetic);
+  ck_assert_double_eq_tol(in, E->internal, 1e-13 * E->internal);
+  ck_assert_double_eq_tol(px, E->momentum[0], 1e-13 * fabs(E->momentum[0]));
+  ck_assert(fabs(E->momentum[0]) > 0.02); /* the hot block (0.027 kg) moves at 1 m/s */
+  ck_assert_double_eq_tol(visc, E->viscous, 1e-13 * fabs(E->viscous) + 1e-300);
+  for (int i = 0; i < 2; ++i) {
+    const ej_set *s = r.sim->sets[i];
+    const ej_real *m = ej_set_field(s, "m"), *v = ej_set_field(s, "v");
+    double k = 0, p = 0, pa = 0;
+    for (ej_idx j = 0; j < ej_set_count(s); ++j) {
+      k += 0.5 * m[j] * (v[3 * j] * v[3 * j] + v[3 * j + 1] * v[3 * j + 1] + v[3 * j + 2] * v[3 * j + 2]);
+      p += m[j] * v[3 * j], pa += m[j] * fabs(v[3 * j]);
+    }
+    char name[64];
+    snprintf(name, sizeof name, "set/%s/kinetic", s->name);
+    ck_assert_double_eq_tol(series(r.sim, name), k, 1e-13 * k);
+    snprintf(name, sizeof name, "set/%s/momentum_x", s->name);
+    ck_assert_double_eq_tol(series(r.sim, name), p, 1e-13 * pa);
+  }
+  ck_assert(series(r.sim, "set/cold/kinetic") > 0); /* its free surfaces expand */
+  vrun_free(&r);
+}
+END_TEST
+
 /* A field the set does not have: an input error at the field, found when the sets exist (so
  * `ejecta check` reports it too). */
 START_TEST(test_unknown_field)
@@ -221,6 +273,7 @@ int main(void)
   tcase_set_timeout(tc, 300);
   tcase_add_test(tc, test_gauge_and_tracer);
   tcase_add_test(tc, test_threads_and_restart);
+  tcase_add_test(tc, test_set_series);
   tcase_add_test(tc, test_unknown_field);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
