@@ -172,6 +172,24 @@ def main():
     print(f"bubble: {csv}, {png}, {cuts}")
     for t, h, w in rows:
         print(f"  t = {t:7.4f} ms  height {h:7.2f} mm  width {w:7.2f} mm")
+    energy_split(a.out)
+
+
+def energy_split(path):
+    """Where the energy went at the end, from output.set_series (/series/set/<set>/): each set's
+    kinetic and internal energy against the initial total. Prints nothing without set_series."""
+    with h5py.File(path, "r") as f:
+        if "set" not in f["series"]:
+            return
+        e = f["series"]["energy"]
+        e0 = float(e["kinetic"][0] + e["internal"][0])
+        t = float(e["t"][-1])
+        print(f"energy at t = {t * 1e3:.4f} ms (of the initial {e0 / 1e3:.1f} kJ; output.set_series):")
+        for name in sorted(f["series"]["set"].keys()):
+            g = f["series"]["set"][name]
+            k, i, i0 = float(g["kinetic"][-1]), float(g["internal"][-1]), float(g["internal"][0])
+            print(f"  {name:<8} kinetic {k / 1e3:8.2f} kJ ({100 * k / e0:5.1f} %)  internal {i / 1e3:8.2f} kJ "
+                  f"({100 * i / e0:5.1f} %; at t = 0 {100 * i0 / e0:5.1f} %)")
 
 
 if __name__ == "__main__":
