@@ -18,6 +18,7 @@ static const char *usage =
     "  check SCENE         validate a scene and build its particles without running\n"
     "  plugins             list the plugins found in the search path\n"
     "  describe NAME       parameters, units, bounds and fields of a plugin\n"
+    "  describe scene      the core's scene keys (time, output, sets, boundaries, probes)\n"
     "  describe --markdown [NAME] [-o DIR]\n"
     "                      Markdown pages of every plugin (default DIR docs/plugins), or of NAME\n"
     "  schema [-o FILE]    JSON Schema of the scene format (schemas/scene.schema.json)\n"
@@ -359,7 +360,14 @@ static int cmd_describe(int argc, char **argv)
     ej_registry_destroy(reg);
     return code;
   }
-  if (!name) return ej_bad_usage("%s", "describe needs a plugin name (see 'ejecta plugins')");
+  if (!name) return ej_bad_usage("%s", "describe needs a plugin name (see 'ejecta plugins') or 'scene'");
+  if (!strcmp(name, "scene")) { /* the core's keys (a plugin cannot be named so: it would be shadowed) */
+    ej_buf b = {0};
+    ej_err rc = ej_scene_describe(&b);
+    if (rc == EJ_OK && b.data) fputs(b.data, stdout);
+    ej_buf_free(&b);
+    return rc == EJ_OK ? 0 : ej_fail(rc);
+  }
   ej_registry *reg;
   ej_err rc = ej_registry_create(&reg);
   if (rc != EJ_OK) return ej_fail(rc);

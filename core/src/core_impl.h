@@ -281,6 +281,8 @@ void ej_scene_free(ej_scene *s);
 ej_err ej_scene_set_points(const ej_scene *sc, int set, ej_points *pts);
 /* JSON Schema of the whole scene format from the registry's tables. */
 ej_err ej_scene_schema(ej_registry *reg, ej_buf *out);
+/* `ejecta describe scene`: the core's scene keys, from their parameter tables. */
+ej_err ej_scene_describe(ej_buf *out);
 
 /* ================================================================== registry and loader */
 

@@ -1031,6 +1031,79 @@ void ej_scene_free(ej_scene *sc)
   ej_free(sc);
 }
 
+/* ------------------------------------------------------------------ describe */
+
+typedef struct ej_describe_key {
+  const char *key, *what;
+} ej_describe_key;
+
+static ej_err ej_describe_section(ej_buf *b, const char *title, const char *intro, const ej_param *table,
+                                  const ej_describe_key *keys)
+{
+  EJ_TRY(ej_buf_printf(b, "\n%s\n", title));
+  if (intro) EJ_TRY(ej_buf_printf(b, "  %s\n", intro));
+  if (table && table[0].name) EJ_TRY(ej_params_describe(b, table, 2));
+  for (const ej_describe_key *k = keys; k && k->key; ++k) EJ_TRY(ej_buf_printf(b, "  %-18s %s\n", k->key, k->what));
+  return EJ_OK;
+}
+
+/* `ejecta describe scene`: the core's keys, from the same tables that parse and check them and
+ * that make the JSON Schema (plugins: `ejecta describe NAME`). */
+ej_err ej_scene_describe(ej_buf *b)
+{
+  static const ej_describe_key top[] = {
+      {"output", "HDF5 output: file, frame and checkpoint intervals, fields, set_series (below)"},
+      {"gravity", "vector (m/s^2), e.g. [0, 0, -9.81]"},
+      {"materials", "map name -> {rho0, eos: {model: NAME, ...}, model: NAME, ...}: 'ejecta describe NAME'"},
+      {"sets", "map name -> a particle set (below)"},
+      {"interactions", "list of {model: NAME, sets: [a] or [a, b], ...}: 'ejecta describe NAME'"},
+      {"boundaries", "list of fix / velocity / symmetry / periodic conditions (below)"},
+      {"domain", "a shape: a particle leaving it stops the run (exit 1)"},
+      {"probes", "list of point gauges and tracers (below)"},
+      {NULL, NULL}};
+  static const ej_describe_key out[] = {
+      {"fields", "list of field names written to frames; default every output field of each set"}, {NULL, NULL}};
+  static const ej_describe_key set[] = {
+      {"method", "plugin name and its parameters in the set's map ('ejecta describe NAME')"},
+      {"material", "a name from materials"},
+      {"shape", "box {min, max}, sphere {center, radius}, cylinder {base, axis, radius, height}, half_space "
+                "{point, normal}, union / intersect [shapes], minus: [set names or shapes]"},
+      {"file", "CSV of particles: columns x, y, z [, vol] (instead of shape)"},
+      {"refine", "list of {region: shape, spacing}: region-wise lattice spacing (below)"},
+      {"velocity", "initial velocity vector (m/s)"},
+      {"initial", "list of {region: shape, rho, e, p, energy_total, velocity} overrides (below)"},
+      {NULL, NULL}};
+  static const ej_describe_key region[] = {{"region", "shape the entry applies to"}, {NULL, NULL}};
+  static const ej_describe_key init[] = {{"region", "shape the entry applies to"},
+                                         {"velocity", "initial velocity vector (m/s) in the region"},
+                                         {NULL, NULL}};
+  static const ej_describe_key bcs[] = {
+      {"fix", "list of components [x, y, z] held at zero velocity; with set, region"},
+      {"velocity", "prescribed velocity vector (m/s); with set, region, components, until (s)"},
+      {"symmetry", "{point, normal}: mirror plane, the normal into the domain (mirror ghosts)"},
+      {"periodic", "{axis, min, max} (below)"},
+      {"set", "the set it applies to (default: every set)"},
+      {NULL, NULL}};
+  static const ej_describe_key probe[] = {
+      {"set", "the particle set it reads (required)"},
+      {"point", "gauge point, or (follow) the point whose nearest particle at t = 0 is followed (m; required)"},
+      {"fields", "list of the set's fields, one column a component (required; at most 16)"},
+      {NULL, NULL}};
+  EJ_TRY(ej_buf_printf(b, "scene: the core's keys (docs/core.md; JSON Schema: 'ejecta schema'; plugins: "
+                          "'ejecta describe NAME')\n"));
+  EJ_TRY(ej_describe_section(b, "top level", NULL, ej_top_params, top));
+  EJ_TRY(ej_describe_section(b, "output", NULL, ej_output_params, out));
+  EJ_TRY(ej_describe_section(b, "materials.<name>", NULL, ej_mat_params, NULL));
+  EJ_TRY(ej_describe_section(b, "sets.<name>", NULL, ej_set_params, set));
+  EJ_TRY(ej_describe_section(b, "sets.<name>.refine[]", NULL, ej_refine_params, region));
+  EJ_TRY(ej_describe_section(b, "sets.<name>.initial[]", NULL, ej_init_params, init));
+  EJ_TRY(ej_describe_section(b, "boundaries[]", "one of fix, velocity, symmetry, periodic:", NULL, bcs));
+  EJ_TRY(ej_describe_section(b, "boundaries[].periodic", NULL, ej_periodic_params, NULL));
+  EJ_TRY(ej_describe_section(b, "probes[]", "recorded every step into /series/probe/<name>/<column>:",
+                             ej_probe_params, probe));
+  return EJ_OK;
+}
+
 /* ------------------------------------------------------------------ particles */
 
 ej_err ej_scene_set_points(const ej_scene *sc, int set, ej_points *pts)

@@ -193,6 +193,15 @@ START_TEST(test_info_commands)
   buf[n] = 0;
   fclose(f);
   ck_assert_msg(strstr(buf, "alpha") && strstr(buf, "kernel") && strstr(buf, "rho"), "%s", buf);
+  ck_assert_int_eq(run("describe scene", err, sizeof err), 0); /* the core's keys, from their tables */
+  f = fopen(path, "r");
+  n = fread(buf, 1, sizeof buf - 1, f);
+  buf[n] = 0;
+  fclose(f);
+  ck_assert_msg(strstr(buf, "dt_min_ratio") && strstr(buf, "skin") && strstr(buf, "set_series") &&
+                    strstr(buf, "probes[]") && strstr(buf, "follow") && strstr(buf, "jitter_volume") &&
+                    strstr(buf, "energy_total") && strstr(buf, "periodic"),
+                "%s", buf);
   ck_assert_int_eq(run("describe sfh", err, sizeof err), 2);
   ck_assert_msg(strstr(err, "did you mean 'sph'"), "%s", err);
   ck_assert_int_eq(run("schema -o s.json", err, sizeof err), 0);
