@@ -425,6 +425,10 @@ void ej_set_update_ghosts(ej_set *s, const ej_xform *xf);
 /* Copies the ghosted fields in s->ghost_dirty only (then clears it): equal to a full refresh
  * when every write since the last refresh was marked in ghost_dirty. One parallel region. */
 void ej_set_refresh_ghosts(ej_set *s, const ej_xform *xf);
+/* Ghost g's value of field f (index) from its source's CURRENT value, as a full refresh would
+ * write it (vectors rotated, points moved, tensors Q A Q^T): out holds ncomp values (an int32 for
+ * EJ_INT). The probes read mirror and periodic images through it. */
+void ej_set_ghost_value(const ej_set *s, int f, const ej_xform *xf, ej_idx g, void *out);
 /* Checks that every ghosted field of every ghost equals its full refresh (bitwise); returns the
  * first stale field's index (and its ghost in *ghost), or -1. Serial (tests, EJECTA_GHOST_CHECK). */
 int ej_set_ghosts_stale(const ej_set *s, const ej_xform *xf, ej_idx *ghost);

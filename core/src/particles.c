@@ -321,6 +321,11 @@ static inline void ej_ghost_value(const ej_set *s, const ej_field *f, const ej_x
   }
 }
 
+void ej_set_ghost_value(const ej_set *s, int f, const ej_xform *xf, ej_idx g, void *out)
+{
+  ej_ghost_value(s, &s->fields[f], xf, g, out);
+}
+
 /* Ghosts [g0, g1) of field f. */
 static void ej_ghost_copy(const ej_set *s, const ej_field *f, const ej_xform *xf, ej_idx g0, ej_idx g1)
 {

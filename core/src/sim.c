@@ -1450,13 +1450,14 @@ static ej_err ej_reports_add(ej_sim *sim, const char *owner, const ej_series_val
  * A probe (scene `probes:`, docs/core.md "Probes") adds columns to the step's series, after the
  * plugins' reports: /series/probe/<name>/<column>, one row per step like the energy budget.
  *   gauge (follow: false): a point fixed in space. Each column is the Shepard average
- *     sum_j w_j f_j / sum_j w_j over the set's owned particles j whose support covers the point,
+ *     sum_j w_j f_j / sum_j w_j over the set's particles j (and images) whose support covers the point,
  *     w_j = V_j f(q) / h_j^dim with the cubic spline f (f(0) = 1, zero from q = 2 on), h_j = R_j / 2,
  *     R_j the particle's search radius (or the probe's radius), q = |x_j - point| / h_j and V_j
  *     its volume (m/rho, else vol, else vol0, else 1). It reproduces a constant exactly, and a
  *     linear field where the particles lie symmetrically about the point. Column `count`: the
  *     number of particles with w_j > 0; the fields are NaN when it is 0 (no material there).
- *     Ghosts are not used: a gauge on a symmetry plane averages one side of it.
+ *     The set's mirror and periodic images (its ghosts, from their sources' current values) are in
+ *     the sums, so a gauge on a symmetry plane of a quarter model reads the full model's value.
  *   tracer (follow: true): the particle nearest to the point in the initial state (the smaller id
  *     on a tie), found again by its id after every re-sort; columns its position, then its fields.
  * One serial pass over the set per gauge and step, in particle order: the values do not depend on
@@ -1575,8 +1576,20 @@ static ej_real ej_probe_kernel(ej_real q)
   return 0;
 }
 
-static void ej_probe_eval(ej_probe *P, int dim, ej_real *out)
+/* A gauge's weight of a particle (or image) at x with search radius Rj and volume V; 0 outside. */
+static ej_real ej_probe_weight(const ej_scene_probe *sp, int dim, const ej_real *x, ej_real Rj, ej_real V)
 {
+  ej_real r2 = 0;
+  for (int d = 0; d < dim; ++d) r2 += (x[d] - sp->point[d]) * (x[d] - sp->point[d]);
+  if (sp->radius > 0) Rj = sp->radius;
+  if (!(r2 < Rj * Rj)) return 0;
+  const ej_real h = 0.5 * Rj;
+  return V * ej_probe_kernel(sqrt(r2) / h) / (dim == 1 ? h : dim == 2 ? h * h : h * h * h);
+}
+
+static void ej_probe_eval(const ej_sim *sim, ej_probe *P, ej_real *out)
+{
+  const int dim = sim->dim;
   const ej_set *s = P->set;
   const ej_scene_probe *sp = P->sp;
   const ej_real *x = s->fields[s->f_x].data;
@@ -1601,15 +1614,33 @@ static void ej_probe_eval(ej_probe *P, int dim, ej_real *out)
   int64_t count = 0;
   for (int c = 1; c < P->n_cols; ++c) out[c] = 0;
   for (ej_idx j = 0; j < s->n; ++j) {
-    ej_real r2 = 0;
-    for (int d = 0; d < dim; ++d) r2 += (x[3 * j + d] - sp->point[d]) * (x[3 * j + d] - sp->point[d]);
-    const ej_real Rj = sp->radius > 0 ? sp->radius : R ? R[j] : 0;
-    if (!(r2 < Rj * Rj)) continue;
-    const ej_real h = 0.5 * Rj, V = m && rho && rho[j] > 0 ? m[j] / rho[j] : vol ? vol[j] : 1.0;
-    const ej_real w = V * ej_probe_kernel(sqrt(r2) / h) / (dim == 1 ? h : dim == 2 ? h * h : h * h * h);
+    const ej_real V = m && rho && rho[j] > 0 ? m[j] / rho[j] : vol ? vol[j] : 1.0;
+    const ej_real w = ej_probe_weight(sp, dim, x + 3 * j, R ? R[j] : 0, V);
     if (!(w > 0)) continue;
     wsum += w, ++count;
     for (int c = 1; c < P->n_cols; ++c) out[c] += w * ej_probe_value(s, P->col_field[c], P->col_comp[c], j);
+  }
+  /* mirror and periodic images: the set's ghosts, each from its source's current state (vectors
+   * and tensors transformed like a ghost refresh), so that a gauge on a symmetry plane averages
+   * both sides of it */
+  for (ej_idx g = 0; g < s->n_ghost; ++g) {
+    const ej_idx j = s->ghost_src[g];
+    ej_real y[3];
+    ej_set_ghost_value(s, s->f_x, sim->xforms, g, y);
+    const ej_real V = m && rho && rho[j] > 0 ? m[j] / rho[j] : vol ? vol[j] : 1.0;
+    const ej_real w = ej_probe_weight(sp, dim, y, R ? R[j] : 0, V);
+    if (!(w > 0)) continue;
+    wsum += w, ++count;
+    for (int c = 1; c < P->n_cols; ++c) {
+      const ej_field *F = &s->fields[P->col_field[c]];
+      if (F->kind == EJ_INT || F->ncomp == 1) {
+        out[c] += w * ej_probe_value(s, P->col_field[c], P->col_comp[c], j);
+        continue;
+      }
+      ej_real val[9];
+      ej_set_ghost_value(s, P->col_field[c], sim->xforms, g, val);
+      out[c] += w * val[P->col_comp[c]];
+    }
   }
   out[0] = (ej_real)count;
   for (int c = 1; c < P->n_cols; ++c) out[c] = wsum > 0 ? out[c] / wsum : NAN;
@@ -1643,7 +1674,7 @@ static ej_err ej_reports_collect(ej_sim *sim, ej_real *ext)
     ej_probe *P = &sim->probes[k];
     ej_real val[EJ_MAX_PROBE_COLS];
     ej_series_value pv[EJ_MAX_PROBE_COLS];
-    ej_probe_eval(P, sim->dim, val);
+    ej_probe_eval(sim, P, val);
     for (int c = 0; c < P->n_cols; ++c) pv[c] = (ej_series_value){.name = P->col_name[c], .value = val[c]};
     EJ_TRY(ej_reports_add(sim, P->owner, pv, P->n_cols, &slot, ext));
   }

@@ -182,6 +182,55 @@ START_TEST(test_threads_and_restart)
 }
 END_TEST
 
+/* A gauge on a symmetry plane averages both sides (the set's mirror images, from the owned state):
+ * the half model's gauge reads the full model's, and the velocity normal to the plane is 0. */
+static const char mirror_scene[] =
+    "ejecta: 1\n"
+    "dimension: 3\n"
+    "time: {end: 1, cfl: 0.3, max_steps: 10}\n"
+    "output: {file: out.h5, fields: [v]}\n"
+    "materials:\n"
+    "  gas: {rho0: 1, eos: {model: ideal_gas, gamma: 1.4}}\n"
+    "sets:\n"
+    "  gas:\n"
+    "    {method: sph, material: gas, shape: {box: {min: [%s, 0, 0], max: [0.3, 0.3, 0.3]}}, spacing: 0.05, p: 1, "
+    "initial: [{region: {sphere: {center: [0, 0, 0], radius: 0.15}}, p: 100}]}\n"
+    "%s"
+    "probes:\n"
+    "  - {name: g, set: gas, point: [0, 0.12, 0.13], fields: [p, v]}\n";
+
+START_TEST(test_gauge_on_symmetry_plane)
+{
+  char dir[64], full[128], half[128], text[2048];
+  vrun_dir(dir, sizeof dir, "probes_mirror");
+  snprintf(full, sizeof full, "%s/full.yaml", dir);
+  snprintf(half, sizeof half, "%s/half.yaml", dir);
+  snprintf(text, sizeof text, mirror_scene, "-0.3", "");
+  vrun_write(full, text);
+  snprintf(text, sizeof text, mirror_scene, "0",
+           "boundaries:\n  - {symmetry: {point: [0, 0, 0], normal: [1, 0, 0]}}\n");
+  vrun_write(half, text);
+  vrun a, b;
+  open_run(&a, dir, full, "full.h5", 1, NULL);
+  vrun_run(&a);
+  open_run(&b, dir, half, "half.h5", 1, NULL);
+  vrun_run(&b);
+  ck_assert_int_gt(b.sim->sets[0]->n_ghost, 0);
+  const double vmax = fabs(series(a.sim, "probe/g/v_y")) + fabs(series(a.sim, "probe/g/v_z"));
+  ck_assert(vmax > 1e-3);
+  ck_assert_double_eq(series(b.sim, "probe/g/count"), series(a.sim, "probe/g/count"));
+  ck_assert_double_eq_tol(series(b.sim, "probe/g/v_x"), 0, 1e-13 * vmax);
+  ck_assert_double_eq_tol(series(a.sim, "probe/g/v_x"), 0, 1e-13 * vmax); /* the full model is symmetric */
+  const char *cols[3] = {"probe/g/p", "probe/g/v_y", "probe/g/v_z"};
+  for (int k = 0; k < 3; ++k) {
+    const double fa = series(a.sim, cols[k]), fb = series(b.sim, cols[k]);
+    ck_assert_msg(fabs(fa - fb) <= 1e-10 * fabs(fa), "%s: full %.15g, half %.15g", cols[k], fa, fb);
+  }
+  vrun_free(&a);
+  vrun_free(&b);
+}
+END_TEST
+
 /* output.set_series: each set's energy and momentum (LS-DYNA's MATSUM) add up to the run's, and its
  * kinetic energy and momentum are those of its particles. */
 START_TEST(test_set_series)
@@ -273,6 +322,7 @@ int main(void)
   tcase_set_timeout(tc, 300);
   tcase_add_test(tc, test_gauge_and_tracer);
   tcase_add_test(tc, test_threads_and_restart);
+  tcase_add_test(tc, test_gauge_on_symmetry_plane);
   tcase_add_test(tc, test_set_series);
   tcase_add_test(tc, test_unknown_field);
   suite_add_tcase(s, tc);
