@@ -2,14 +2,17 @@
 """Plot time series of an ejecta output file (HDF5) to a PNG.
 
 Every run writes /series/energy/<column> (t, step, dt, kinetic, internal, viscous, plastic,
-hourglass, external, balance, momentum_x|y|z) and each plugin's per-step series as
-/series/<set or interaction>/<name>. This tool plots any of them against time (or step).
+hourglass, external, balance, momentum_x|y|z), each plugin's per-step series as
+/series/<set or interaction>/<name>, the scene's probes as /series/probe/<name>/<column> and, with
+output.set_series, /series/set/<set>/<column>. This tool plots any of them against time (or step).
 
 Examples:
   tools/plot_series.py out/sedov_3d.h5                       # energy budget -> out/sedov_3d_energy.png
   tools/plot_series.py out/run.h5 --preset momentum -o mom.png
   tools/plot_series.py out/run.h5 energy/dt --log -o dt.png  # any series by owner/name
   tools/plot_series.py out/run.h5 plate/mean_damage indenter/force --x step
+  tools/plot_series.py out/run.h5 probe/z1/p probe/z2/p         # the scene's probes (gauges, tracers)
+  tools/plot_series.py out/run.h5 set/soil/kinetic set/charge/kinetic   # output.set_series
   tools/plot_series.py out/run.h5 --list                     # what the file holds
 
 Works on a failed run's NAME.h5.partial as well (series up to the last checkpoint or failure).
@@ -33,16 +36,16 @@ UNITS = {"kinetic": "J", "internal": "J", "viscous": "J", "plastic": "J", "hourg
 
 
 def list_series(f):
-    """owner/name of every 1-D dataset under /series."""
+    """owner/name of every 1-D dataset under /series (owner may be nested: probe/<name>, set/<set>)."""
     out = []
     if "series" not in f:
         return out
-    for owner, grp in f["series"].items():
-        if not isinstance(grp, h5py.Group):
-            continue
-        for name, ds in grp.items():
-            if isinstance(ds, h5py.Dataset) and ds.ndim == 1:
-                out.append(f"{owner}/{name}")
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and obj.ndim == 1 and "/" in name:
+            out.append(name)
+
+    f["series"].visititems(visit)
     return sorted(out)
 
 
@@ -82,11 +85,11 @@ def main(argv=None):
             if w in avail:
                 names.append(w)
                 continue
-            hits = [s for s in avail if s.split("/", 1)[1] == w]
+            hits = [s for s in avail if s.rsplit("/", 1)[1] == w]
             if not hits:
                 sys.exit(f"plot_series: no series '{w}' in {a.file} (--list shows them)")
             names += hits
-        names = [n for n in names if n.split("/", 1)[1] not in ("t", "step")]
+        names = [n for n in names if n.rsplit("/", 1)[1] not in ("t", "step")]
         if not names:
             sys.exit("plot_series: nothing to plot")
 
@@ -97,7 +100,7 @@ def main(argv=None):
         fig, ax = plt.subplots(figsize=(8, 5))
         columns = {}
         for n in names:
-            owner, name = n.split("/", 1)
+            owner, name = n.rsplit("/", 1)
             y = np.asarray(f["series"][owner][name][:], dtype=float)
             x = time_axis(f, owner, a.x)
             m = min(len(x), len(y))
