@@ -2,6 +2,7 @@
  * Exit codes: 0 success, 1 a run that failed (watchdog, numerics, I/O), 2 bad input, 128 + N a run
  * stopped by signal N (SIGINT 130, SIGTERM 143) with its state kept for --restart. */
 #include <errno.h>
+#include <math.h>
 #include <signal.h>
 #include <stdlib.h>
 #include <string.h>
@@ -144,6 +145,24 @@ static int cmd_run(int argc, char **argv, bool check_only)
       const ej_set *s = sim->sets[i];
       printf("set '%s': %d particles, method %s, material %s\n", s->name, (int)s->n, s->mops->name, s->model->name);
       total += s->n;
+    }
+    for (int k = 0; k < sim->n_probes; ++k) { /* where each probe measures, to check before a long run */
+      const ej_probe *P = &sim->probes[k];
+      const ej_set *s = P->set;
+      const ej_real *x = ej_set_field(s, "x"), *pt = P->sp->point;
+      if (P->sp->follow) {
+        printf("probe '%s': tracer of particle id %d of set '%s', at (%g, %g, %g) m, %d columns\n", P->sp->name,
+               (int)P->id, s->name, x[3 * P->at], x[3 * P->at + 1], x[3 * P->at + 2], P->n_cols);
+        continue;
+      }
+      double d2 = INFINITY;
+      for (ej_idx j = 0; j < s->n; ++j) {
+        double r2 = 0;
+        for (int d = 0; d < sim->dim; ++d) r2 += (x[3 * j + d] - pt[d]) * (x[3 * j + d] - pt[d]);
+        d2 = r2 < d2 ? r2 : d2;
+      }
+      printf("probe '%s': gauge in set '%s' at (%g, %g, %g) m, nearest particle %g m away, %d columns\n", P->sp->name,
+             s->name, pt[0], pt[1], pt[2], sqrt(d2), P->n_cols);
     }
     printf("%s: OK (%lld particles, dimension %d, end time %g s)\n", scene_path, total, scene->dimension,
            scene->t_end);

@@ -147,9 +147,24 @@ START_TEST(test_check_and_run)
   char scene[512], args[600], err[8192];
   snprintf(scene, sizeof scene, "%s/good.yaml", tmpdir);
   write_file(scene, GOOD_HEAD "sets:\n  tube: {method: sph, material: gas, shape: {box: {min: [0], max: [1]}}, "
-                              "spacing: 0.01, p: 1}\n");
+                              "spacing: 0.01, p: 1}\n"
+                              "probes:\n  - {name: g, set: tube, point: [0.5], fields: [p]}\n"
+                              "  - {name: t, set: tube, point: [0.2], follow: true, fields: [v]}\n");
   snprintf(args, sizeof args, "check %s", scene);
   ck_assert_int_eq(run(args, err, sizeof err), 0);
+  {
+    /* check says where each probe measures: the gauge's nearest particle, the tracer's particle */
+    char path[600], buf[4096];
+    snprintf(path, sizeof path, "%s/stdout.txt", tmpdir);
+    FILE *f = fopen(path, "r");
+    const size_t n = fread(buf, 1, sizeof buf - 1, f);
+    buf[n] = 0;
+    fclose(f);
+    ck_assert_msg(strstr(buf, "probe 'g': gauge in set 'tube' at (0.5, 0, 0) m, nearest particle 0.005 m away, 2 "
+                              "columns") &&
+                      strstr(buf, "probe 't': tracer of particle id 19 of set 'tube', at (0.195, 0, 0) m"),
+                  "%s", buf);
+  }
   char out[600];
   snprintf(out, sizeof out, "%s/out/r.h5", tmpdir);
   ck_assert(!exists(out)); /* check writes nothing */
