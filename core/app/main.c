@@ -155,12 +155,8 @@ static int cmd_run(int argc, char **argv, bool check_only)
                (int)P->id, s->name, x[3 * P->at], x[3 * P->at + 1], x[3 * P->at + 2], P->n_cols);
         continue;
       }
-      double d2 = INFINITY;
-      for (ej_idx j = 0; j < s->n; ++j) {
-        double r2 = 0;
-        for (int d = 0; d < sim->dim; ++d) r2 += (x[3 * j + d] - pt[d]) * (x[3 * j + d] - pt[d]);
-        d2 = r2 < d2 ? r2 : d2;
-      }
+      ej_real d2;
+      ej_set_nearest(s, sim->dim, pt, &d2);
       printf("probe '%s': gauge in set '%s' at (%g, %g, %g) m, nearest particle %g m away, %d columns\n", P->sp->name,
              s->name, pt[0], pt[1], pt[2], sqrt(d2), P->n_cols);
     }

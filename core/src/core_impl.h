@@ -470,6 +470,18 @@ ej_err ej_nbr_sort_order(int dim, const ej_real *x, ej_idx n, ej_real cell, ej_i
  * r[0..n) * scale (the class's largest scaled radius; ties: the class of larger radii), so that
  * ej_nbr_sort_order with it puts most rows' candidates in ascending order. 0 when n is 0. */
 ej_real ej_nbr_sort_cell(const ej_real *r, ej_idx n, ej_real scale);
+
+/* The cubic B-spline kernel's shape (Monaghan 1992), f(0) = 1, zero from q = 2 on: the kernel
+ * number density of jitter_volume: kernel (geometry.c) and the probes' gauge weights (sim.c). */
+static inline ej_real ej_spline_shape(ej_real q)
+{
+  const ej_real t = 2.0 - q;
+  return q < 1.0 ? 1.0 - 1.5 * q * q + 0.75 * q * q * q : q < 2.0 ? 0.25 * t * t * t : 0.0;
+}
+
+/* The owned particle of s nearest to p (the smaller id on a tie) and its squared distance (dim
+ * components); -1 for an empty set. */
+ej_idx ej_set_nearest(const ej_set *s, int dim, const ej_real p[3], ej_real *d2);
 /* Renumbers a list after its row set and column set were permuted by perm (perm[new] = old;
  * same permutation for rows and columns: fixed families of one set). */
 ej_err ej_nbrlist_permute(ej_nbrlist *L, const ej_idx *perm);

@@ -649,10 +649,8 @@ static ej_err ej_number_density(ej_nbrlist *L, int dim, const ej_real *x, const 
         const ej_real d = x[3 * (size_t)i + c] - x[3 * (size_t)j + c];
         r2 += d * d;
       }
-      const ej_real h = 0.65 * (sp[i] + sp[j]), q = sqrt(r2) / h;
-      const ej_real t = 2.0 - q;
-      const ej_real w = q < 1.0 ? 1.0 - 1.5 * q * q + 0.75 * q * q * q : q < 2.0 ? 0.25 * t * t * t : 0.0;
-      sum += sigma * w / (dim == 1 ? h : dim == 2 ? h * h : h * h * h);
+      const ej_real h = 0.65 * (sp[i] + sp[j]);
+      sum += sigma * ej_spline_shape(sqrt(r2) / h) / (dim == 1 ? h : dim == 2 ? h * h : h * h * h);
     }
     nd[i] = sum;
   }

@@ -1510,9 +1510,25 @@ static ej_err ej_probe_cols(ej_probe *P, int dim)
   return EJ_OK;
 }
 
-/* Probes from the scene: columns, and each tracer's particle, from the sets as generated (before
- * any sort or restart). Input errors (an unknown field, a gauge without a radius) exit 2. */
-static ej_err ej_probes_setup(ej_sim *sim)
+ej_idx ej_set_nearest(const ej_set *s, int dim, const ej_real p[3], ej_real *d2)
+{
+  const ej_real *x = s->fields[s->f_x].data;
+  const int32_t *id = s->fields[s->f_id].data;
+  ej_real best = INFINITY;
+  ej_idx at = -1;
+  for (ej_idx j = 0; j < s->n; ++j) {
+    ej_real r2 = 0;
+    for (int d = 0; d < dim; ++d) r2 += (x[3 * j + d] - p[d]) * (x[3 * j + d] - p[d]);
+    if (r2 < best || (at >= 0 && r2 == best && id[j] < id[at])) best = r2, at = j;
+  }
+  *d2 = best;
+  return at;
+}
+
+/* The series the core adds to the plugins' reports: output.set_series's per-set sums, and the
+ * probes (columns, and each tracer's particle, from the sets as generated, before any sort or
+ * restart). Input errors (an unknown field, a gauge without a radius) exit 2. */
+static ej_err ej_series_setup(ej_sim *sim)
 {
   const ej_scene *sc = sim->scene;
   if (sc->set_series) {
@@ -1540,15 +1556,10 @@ static ej_err ej_probes_setup(ej_sim *sim)
       return ej_error_input(&sp->loc, "probe '%s': set '%s' (method %s) has no search radius; give the probe a "
                             "radius", sp->name, s->name, s->mops->name);
     if (sp->follow) {
-      EJ_ENSURE(s->n > 0, EJ_ERR_INTERNAL, "set '%s' is empty", s->name);
-      const ej_real *x = s->fields[s->f_x].data;
-      const int32_t *id = s->fields[s->f_id].data;
-      ej_real best = INFINITY;
-      for (ej_idx j = 0; j < s->n; ++j) {
-        ej_real r2 = 0;
-        for (int d = 0; d < sim->dim; ++d) r2 += (x[3 * j + d] - sp->point[d]) * (x[3 * j + d] - sp->point[d]);
-        if (r2 < best || (r2 == best && id[j] < P->id)) best = r2, P->id = id[j], P->at = j;
-      }
+      ej_real d2;
+      P->at = ej_set_nearest(s, sim->dim, sp->point, &d2);
+      EJ_ENSURE(P->at >= 0, EJ_ERR_INTERNAL, "set '%s' is empty", s->name);
+      P->id = ((const int32_t *)s->fields[s->f_id].data)[P->at];
     }
   }
   /* the series table holds EJ_MAX_REPORTS columns, the plugins' reports included */
@@ -1567,16 +1578,15 @@ static ej_real ej_probe_value(const ej_set *s, int f, int q, ej_idx j)
   return ((const ej_real *)F->data)[(size_t)nc * j + (size_t)q];
 }
 
-/* The cubic spline's shape, f(0) = 1 (the normalisation cancels in the Shepard average but for
- * the 1/h^dim of particles with different supports, applied by the caller). */
-static ej_real ej_probe_kernel(ej_real q)
+/* A particle's volume for the gauge weights: m/rho, else vol (or vol0), else 1. */
+static ej_real ej_probe_volume(const ej_real *m, const ej_real *rho, const ej_real *vol, ej_idx j)
 {
-  if (q < 1) return 1 - 1.5 * q * q + 0.75 * q * q * q;
-  if (q < 2) return 0.25 * (2 - q) * (2 - q) * (2 - q);
-  return 0;
+  return m && rho && rho[j] > 0 ? m[j] / rho[j] : vol ? vol[j] : 1.0;
 }
 
-/* A gauge's weight of a particle (or image) at x with search radius Rj and volume V; 0 outside. */
+/* A gauge's weight of a particle (or image) at x with search radius Rj and volume V; 0 outside.
+ * The spline's normalisation cancels in the Shepard average but for the 1/h^dim of particles with
+ * different supports. */
 static ej_real ej_probe_weight(const ej_scene_probe *sp, int dim, const ej_real *x, ej_real Rj, ej_real V)
 {
   ej_real r2 = 0;
@@ -1584,7 +1594,7 @@ static ej_real ej_probe_weight(const ej_scene_probe *sp, int dim, const ej_real 
   if (sp->radius > 0) Rj = sp->radius;
   if (!(r2 < Rj * Rj)) return 0;
   const ej_real h = 0.5 * Rj;
-  return V * ej_probe_kernel(sqrt(r2) / h) / (dim == 1 ? h : dim == 2 ? h * h : h * h * h);
+  return V * ej_spline_shape(sqrt(r2) / h) / (dim == 1 ? h : dim == 2 ? h * h : h * h * h);
 }
 
 static void ej_probe_eval(const ej_sim *sim, ej_probe *P, ej_real *out)
@@ -1614,8 +1624,7 @@ static void ej_probe_eval(const ej_sim *sim, ej_probe *P, ej_real *out)
   int64_t count = 0;
   for (int c = 1; c < P->n_cols; ++c) out[c] = 0;
   for (ej_idx j = 0; j < s->n; ++j) {
-    const ej_real V = m && rho && rho[j] > 0 ? m[j] / rho[j] : vol ? vol[j] : 1.0;
-    const ej_real w = ej_probe_weight(sp, dim, x + 3 * j, R ? R[j] : 0, V);
+    const ej_real w = ej_probe_weight(sp, dim, x + 3 * j, R ? R[j] : 0, ej_probe_volume(m, rho, vol, j));
     if (!(w > 0)) continue;
     wsum += w, ++count;
     for (int c = 1; c < P->n_cols; ++c) out[c] += w * ej_probe_value(s, P->col_field[c], P->col_comp[c], j);
@@ -1627,18 +1636,18 @@ static void ej_probe_eval(const ej_sim *sim, ej_probe *P, ej_real *out)
     const ej_idx j = s->ghost_src[g];
     ej_real y[3];
     ej_set_ghost_value(s, s->f_x, sim->xforms, g, y);
-    const ej_real V = m && rho && rho[j] > 0 ? m[j] / rho[j] : vol ? vol[j] : 1.0;
-    const ej_real w = ej_probe_weight(sp, dim, y, R ? R[j] : 0, V);
+    const ej_real w = ej_probe_weight(sp, dim, y, R ? R[j] : 0, ej_probe_volume(m, rho, vol, j));
     if (!(w > 0)) continue;
     wsum += w, ++count;
+    ej_real val[9];
     for (int c = 1; c < P->n_cols; ++c) {
       const ej_field *F = &s->fields[P->col_field[c]];
       if (F->kind == EJ_INT || F->ncomp == 1) {
         out[c] += w * ej_probe_value(s, P->col_field[c], P->col_comp[c], j);
         continue;
       }
-      ej_real val[9];
-      ej_set_ghost_value(s, P->col_field[c], sim->xforms, g, val);
+      /* a field's components are consecutive columns: its image value once, at the first */
+      if (P->col_comp[c] == 0) ej_set_ghost_value(s, P->col_field[c], sim->xforms, g, val);
       out[c] += w * val[P->col_comp[c]];
     }
   }
@@ -1977,7 +1986,7 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
     EJ_TRY_GOTO(rc, ej_located(in->ops->create(in->config, in->a, in->b, &in->state), &si->loc), out_destroy);
     in->pre_slot = ej_inter_pre_slot(in);
   }
-  EJ_TRY_GOTO(rc, ej_probes_setup(sim), out_destroy);
+  EJ_TRY_GOTO(rc, ej_series_setup(sim), out_destroy);
   const char *path = opts && opts->output ? opts->output : scene->output_file;
   sim->out_path = ej_strdup(path);
   EJ_ENSURE(sim->out_path, EJ_ERR_MEM, "out of memory");

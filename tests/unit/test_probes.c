@@ -136,6 +136,17 @@ START_TEST(test_gauge_and_tracer)
 }
 END_TEST
 
+/* The last series row of two runs: the same columns, bitwise the same values. */
+static void same_row(const ej_sim *a, const ej_sim *b, const char *what)
+{
+  ck_assert_int_eq(a->reports.n, b->reports.n);
+  for (int k = 0; k < a->reports.n; ++k) {
+    ck_assert_str_eq(a->reports.names[k], b->reports.names[k]);
+    const double va = a->reports.values[k], vb = b->reports.values[k];
+    ck_assert_msg(!memcmp(&va, &vb, sizeof va), "%s: %.17g vs %.17g%s", a->reports.names[k], va, vb, what);
+  }
+}
+
 /* 1 and 2 threads: the same columns bitwise; a restart from step 15 ends on the same row as the
  * uninterrupted run. */
 START_TEST(test_threads_and_restart)
@@ -156,13 +167,8 @@ START_TEST(test_threads_and_restart)
   vrun_run(&a);
   open_run(&b, dir, scene, "b.h5", 2, NULL);
   vrun_run(&b);
-  ck_assert_int_eq(a.sim->reports.n, b.sim->reports.n);
   ck_assert_int_ge(a.sim->reports.n, 16);
-  for (int k = 0; k < a.sim->reports.n; ++k) {
-    ck_assert_str_eq(a.sim->reports.names[k], b.sim->reports.names[k]);
-    const double va = a.sim->reports.values[k], vb = b.sim->reports.values[k];
-    ck_assert_msg(!memcmp(&va, &vb, sizeof va), "%s: %.17g vs %.17g", a.sim->reports.names[k], va, vb);
-  }
+  same_row(a.sim, b.sim, "");
   open_run(&c, dir, half, "c.h5", 1, NULL);
   vrun_run(&c);
   ck_assert_int_eq((int)c.sim->step, 15);
@@ -170,11 +176,7 @@ START_TEST(test_threads_and_restart)
   open_run(&d, dir, scene, "d.h5", 1, cp);
   vrun_run(&d);
   ck_assert_int_eq((int)d.sim->step, 30);
-  for (int k = 0; k < a.sim->reports.n; ++k) {
-    const double va = a.sim->reports.values[k], vd = d.sim->reports.values[k];
-    ck_assert_msg(!memcmp(&va, &vd, sizeof va), "%s: %.17g vs %.17g after the restart", a.sim->reports.names[k], va,
-                  vd);
-  }
+  same_row(a.sim, d.sim, " after the restart");
   vrun_free(&a);
   vrun_free(&b);
   vrun_free(&c);
