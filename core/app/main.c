@@ -160,6 +160,25 @@ static int cmd_run(int argc, char **argv, bool check_only)
       printf("probe '%s': gauge in set '%s' at (%g, %g, %g) m, nearest particle %g m away, %d columns\n", P->sp->name,
              s->name, pt[0], pt[1], pt[2], sqrt(d2), P->n_cols);
     }
+    for (int b = 0; b < scene->n_bcs; ++b) { /* the dashpots' share of the boundary: one layer gives its area */
+      if (scene->bcs[b].kind != EJ_BC_NONREFLECT) continue;
+      for (int i = 0; i < sim->n_sets; ++i) {
+        const ej_set *s = sim->sets[i];
+        if (!(s->nr_bits & (1u << b))) continue;
+        const ej_real *vol0 = ej_set_field(s, "vol0");
+        int n = 0;
+        double area = 0;
+        for (ej_idx p = 0; p < s->n; ++p)
+          if (s->bc_mask[p] & (1u << b)) {
+            ++n;
+            area += scene->dimension == 3 ? cbrt(vol0[p] * vol0[p]) : scene->dimension == 2 ? sqrt(vol0[p]) : 1;
+          }
+        printf("non_reflecting (line %d) on set '%s': %d particles, boundary %g %s, rho c_p %g, rho c_s %g kg/(m^2 s)\n",
+               scene->bcs[b].loc.line, s->name, n, area,
+               scene->dimension == 3 ? "m^2" : scene->dimension == 2 ? "m (per m of thickness)" : "(1D)", s->nr_zp[b],
+               s->nr_zs[b]);
+      }
+    }
     printf("%s: OK (%lld particles, dimension %d, end time %g s)\n", scene_path, total, scene->dimension,
            scene->t_end);
   } else {

@@ -199,17 +199,20 @@ typedef struct ej_scene_set {
   ej_scene_init *init;   /* init[0] is the set-wide one (region NULL) */
 } ej_scene_set;
 
-typedef enum ej_bc_kind { EJ_BC_FIX, EJ_BC_VELOCITY, EJ_BC_SYMMETRY, EJ_BC_PERIODIC } ej_bc_kind;
+typedef enum ej_bc_kind { EJ_BC_FIX, EJ_BC_VELOCITY, EJ_BC_SYMMETRY, EJ_BC_PERIODIC, EJ_BC_NONREFLECT } ej_bc_kind;
 
 typedef struct ej_scene_bc {
   ej_bc_kind kind;
   ej_loc loc;
   int set;          /* set index, -1 = every set */
-  ej_shape *region; /* FIX / VELOCITY: particles inside at t = 0; NULL = whole set */
+  ej_shape *region; /* FIX / VELOCITY / NONREFLECT: particles inside at t = 0; NULL = whole set */
   bool comp[3];     /* FIX: constrained components; VELOCITY: prescribed components */
   ej_real velocity[3];
   ej_real until;    /* VELOCITY: prescribed while t <= until (INFINITY: for the whole run) */
-  ej_real point[3], normal[3]; /* SYMMETRY plane (normal unit, pointing into the domain) */
+  ej_real point[3], normal[3]; /* SYMMETRY plane (normal unit, pointing into the domain);
+                                * NONREFLECT: outward unit normal, or (radial) the centre in point */
+  bool radial;                 /* NONREFLECT: normal = (x - point) / |x - point| */
+  ej_real rho, cp, cs;         /* NONREFLECT: impedance overrides; NAN = from the set's material */
   int axis;                    /* PERIODIC: 0, 1, 2 */
   ej_real lo, hi;              /* PERIODIC: period [lo, hi) */
 } ej_scene_bc;
@@ -382,6 +385,9 @@ struct ej_set {
   uint8_t *ghost_xf;
   /* boundary-condition masks: per particle bit k set if bcs[k] applies (k < 32) */
   uint32_t *bc_mask;
+  /* non_reflecting bcs[k]: the dashpots' impedances rho c_p and rho c_s on this set (kg/(m^2 s)) */
+  ej_real nr_zp[32], nr_zs[32];
+  uint32_t nr_bits; /* bit k: bcs[k] is a non-reflecting boundary on this set */
   /* Ghost refresh by need (bit k = field k, EJ_MAX_FIELDS <= 64): fields written since the last
    * refresh; what each method pass and post_step writes (ej_method_ops.pass_writes; all bits when
    * the method does not say, or past EJ_MAX_PASS_MASKS passes); fields the integrator writes. */

@@ -197,6 +197,23 @@ static const ej_param ej_periodic_params[] = {
     EJ_PARAM_REAL(ej_periodic_cfg, max, "m", 0, 0, 0, EJ_PF_REQUIRED, "Upper end of the period."),
     {0}};
 
+/* non_reflecting: Lysmer-Kuhlemeyer viscous boundary (docs/core.md "Non-reflecting boundaries"). */
+typedef struct ej_nonrefl_cfg {
+  ej_real rho, cp, cs;
+} ej_nonrefl_cfg;
+
+static const ej_param ej_nonrefl_params[] = {
+    EJ_PARAM_REAL(ej_nonrefl_cfg, rho, "kg/m^3", 0, 0, 0, EJ_PF_HAS_MIN,
+                  "Density of the dashpots' impedances rho c_p and rho c_s; 0 = the material's rho0."),
+    EJ_PARAM_REAL(ej_nonrefl_cfg, cp, "m/s", 0, 0, 0, EJ_PF_HAS_MIN,
+                  "P-wave speed of the normal dashpot; 0 = sqrt((K + 4G/3) / rho0) from the strength model's initial "
+                  "moduli (required for a set without one)."),
+    EJ_PARAM_REAL(ej_nonrefl_cfg, cs, "m/s", 0, 0, 0, EJ_PF_HAS_MIN,
+                  "S-wave speed of the tangential dashpot; 0 = sqrt(G / rho0) from the strength model, none for a set "
+                  "without one (a fluid)."),
+    {0}};
+static const char *const ej_nonrefl_manual[] = {"normal", "center", NULL};
+
 /* ------------------------------------------------------------------ loader state */
 
 typedef struct ej_loader {
@@ -625,25 +642,28 @@ static ej_err ej_parse_bc(ej_loader *L, int index, ej_scene_bc *bc, const ej_nod
   EJ_TRY(ej_expect_map(n, "a boundary condition"));
   bc->loc = n->loc;
   bc->set = -1;
-  static const char *const kinds[] = {"fix", "velocity", "symmetry", "periodic", NULL};
+  static const char *const kinds[] = {"fix", "velocity", "symmetry", "periodic", "non_reflecting", NULL};
   int kind = -1;
   for (int k = 0; kinds[k]; ++k)
     if (ej_node_get(n, kinds[k])) {
       if (kind >= 0)
         return ej_error_input(ej_node_key_loc(n, kinds[k]), "a boundary condition is one of fix, velocity, symmetry, "
-                              "periodic; found both '%s' and '%s'", kinds[kind], kinds[k]);
+                              "periodic, non_reflecting; found both '%s' and '%s'", kinds[kind], kinds[k]);
       kind = k;
     }
   if (kind < 0) {
-    static const char *const all[] = {"fix", "velocity", "symmetry", "periodic", "set", "region", "components", NULL};
+    static const char *const all[] = {"fix", "velocity", "symmetry", "periodic", "non_reflecting",
+                                      "set", "region",   "components", NULL};
     EJ_TRY(ej_check_keys(n, "a boundary condition", all));
-    return ej_error_input(&n->loc, "a boundary condition needs one of fix, velocity, symmetry, periodic");
+    return ej_error_input(&n->loc, "a boundary condition needs one of fix, velocity, symmetry, periodic, "
+                                   "non_reflecting");
   }
   static const char *const keys_fix[] = {"fix", "set", "region", NULL};
   static const char *const keys_vel[] = {"velocity", "set", "region", "components", "until", NULL};
   static const char *const keys_sym[] = {"symmetry", "set", NULL};
   static const char *const keys_per[] = {"periodic", "set", NULL};
-  static const char *const *const keys[] = {keys_fix, keys_vel, keys_sym, keys_per};
+  static const char *const keys_nr[] = {"non_reflecting", "set", "region", NULL};
+  static const char *const *const keys[] = {keys_fix, keys_vel, keys_sym, keys_per, keys_nr};
   char what[EJ_WHAT_MAX];
   snprintf(what, sizeof what, "a %s boundary condition", kinds[kind]);
   EJ_TRY(ej_check_keys(n, what, keys[kind]));
@@ -716,6 +736,37 @@ static ej_err ej_parse_bc(ej_loader *L, int index, ej_scene_bc *bc, const ej_nod
     bc->axis = cfg.axis;
     bc->lo = cfg.min;
     bc->hi = cfg.max;
+    break;
+  }
+  case 4: {
+    bc->kind = EJ_BC_NONREFLECT;
+    if (!region)
+      return ej_error_input(ej_node_key_loc(n, "non_reflecting"),
+                            "non_reflecting needs 'region': the layer of particles on the truncated boundary "
+                            "(one particle thick)");
+    ej_nonrefl_cfg cfg = {0};
+    EJ_TRY(ej_params_apply(ej_nonrefl_params, &cfg, v, "non_reflecting", ej_nonrefl_manual, NULL));
+    const ej_node *nn = ej_node_get(v, "normal"), *cn = ej_node_get(v, "center");
+    if (!nn == !cn)
+      return ej_error_input(nn && cn ? &cn->loc : &v->loc,
+                            "non_reflecting needs one of 'normal' (a plane boundary, outward) and 'center' (a "
+                            "spherical one)%s",
+                            nn ? ", not both" : "");
+    if (nn) {
+      EJ_TRY(ej_node_vector(nn, dim, "1", bc->normal));
+      ej_real len = 0;
+      for (int k = 0; k < 3; ++k) len += bc->normal[k] * bc->normal[k];
+      len = sqrt(len);
+      if (!(len > 0) || !isfinite(len))
+        return ej_error_input(&nn->loc, "non_reflecting normal must be a non-zero vector");
+      for (int k = 0; k < 3; ++k) bc->normal[k] /= len;
+    } else {
+      bc->radial = true;
+      EJ_TRY(ej_node_vector(cn, dim, "m", bc->point));
+    }
+    bc->rho = cfg.rho > 0 ? cfg.rho : NAN;
+    bc->cp = cfg.cp > 0 ? cfg.cp : NAN;
+    bc->cs = cfg.cs > 0 ? cfg.cs : NAN;
     break;
   }
   }
@@ -1082,6 +1133,7 @@ ej_err ej_scene_describe(ej_buf *b)
       {"velocity", "prescribed velocity vector (m/s); with set, region, components, until (s)"},
       {"symmetry", "{point, normal}: mirror plane, the normal into the domain (mirror ghosts)"},
       {"periodic", "{axis, min, max} (below)"},
+      {"non_reflecting", "{normal | center, rho, cp, cs} (below): viscous dashpots on the particles of region"},
       {"set", "the set it applies to (default: every set)"},
       {NULL, NULL}};
   static const ej_describe_key probe[] = {
@@ -1097,8 +1149,14 @@ ej_err ej_scene_describe(ej_buf *b)
   EJ_TRY(ej_describe_section(b, "sets.<name>", NULL, ej_set_params, set));
   EJ_TRY(ej_describe_section(b, "sets.<name>.refine[]", NULL, ej_refine_params, region));
   EJ_TRY(ej_describe_section(b, "sets.<name>.initial[]", NULL, ej_init_params, init));
-  EJ_TRY(ej_describe_section(b, "boundaries[]", "one of fix, velocity, symmetry, periodic:", NULL, bcs));
+  EJ_TRY(ej_describe_section(b, "boundaries[]", "one of fix, velocity, symmetry, periodic, non_reflecting:", NULL,
+                             bcs));
   EJ_TRY(ej_describe_section(b, "boundaries[].periodic", NULL, ej_periodic_params, NULL));
+  static const ej_describe_key nonrefl[] = {
+      {"normal", "outward normal of a plane boundary, e.g. [1, 0, 0] on the face x = max (one of normal, center)"},
+      {"center", "centre of a spherical (2D: circular) boundary: normal (x - center)/|x - center| (m)"},
+      {NULL, NULL}};
+  EJ_TRY(ej_describe_section(b, "boundaries[].non_reflecting", NULL, ej_nonrefl_params, nonrefl));
   EJ_TRY(ej_describe_section(b, "probes[]", "recorded every step into /series/probe/<name>/<column>:",
                              ej_probe_params, probe));
   return EJ_OK;
@@ -1372,7 +1430,7 @@ out_free:
 }
 
 static const char ej_schema_bc_head[] =
-    "\"boundary\":{\"description\":\"Boundary condition: fix, velocity, symmetry or periodic.\",\"type\":\"object\","
+    "\"boundary\":{\"description\":\"Boundary condition: fix, velocity, symmetry, periodic or non_reflecting.\",\"type\":\"object\","
     "\"oneOf\":["
     "{\"additionalProperties\":false,\"required\":[\"fix\"],\"properties\":{\"set\":{\"type\":\"string\"},"
     "\"region\":{\"$ref\":\"#/$defs/shape\"},\"fix\":{\"$ref\":\"#/$defs/components\"}}},"
@@ -1423,6 +1481,15 @@ static ej_err ej_schema_compact(ej_registry *reg, ej_buf *b)
   EJ_TRY(ej_buf_printf(b, "%s", ej_schema_defs));
   EJ_TRY(ej_buf_printf(b, "%s", ej_schema_bc_head));
   EJ_TRY(ej_params_schema(b, ej_periodic_params, NULL));
+  EJ_TRY(ej_buf_printf(b, "}},{\"additionalProperties\":false,\"required\":[\"non_reflecting\",\"region\"],"
+                          "\"properties\":{\"set\":{\"type\":\"string\"},\"region\":{\"$ref\":\"#/$defs/shape\"},"
+                          "\"non_reflecting\":"));
+  EJ_TRY(ej_buf_printf(b, "{\"allOf\":["));
+  EJ_TRY(ej_params_schema(b, ej_nonrefl_params, ej_nonrefl_manual));
+  EJ_TRY(ej_buf_printf(b, ",{\"oneOf\":[{\"required\":[\"normal\"]},{\"required\":[\"center\"]}],"
+                          "\"properties\":{\"normal\":{\"$ref\":\"#/$defs/vector\",\"description\":\"Outward "
+                          "normal of a plane boundary.\"},\"center\":{\"$ref\":\"#/$defs/vector\",\"description\":"
+                          "\"Centre of a spherical (2D: circular) boundary (m).\"}}}]}"));
   EJ_TRY(ej_buf_printf(b, "}}]},"));
   EJ_TRY(ej_buf_printf(b, "\"probe\":{\"allOf\":["));
   EJ_TRY(ej_params_schema(b, ej_probe_params, ej_probe_manual));

@@ -474,7 +474,9 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
   /* Constrained particles are chosen once, in the initial configuration. */
   for (int b = 0; b < sim->scene->n_bcs; ++b) {
     const ej_scene_bc *bc = &sim->scene->bcs[b];
-    if ((bc->kind != EJ_BC_FIX && bc->kind != EJ_BC_VELOCITY) || !ej_bc_applies(bc, s->index)) continue;
+    if ((bc->kind != EJ_BC_FIX && bc->kind != EJ_BC_VELOCITY && bc->kind != EJ_BC_NONREFLECT) ||
+        !ej_bc_applies(bc, s->index))
+      continue;
     for (ej_idx i = 0; i < s->n; ++i)
       if (!bc->region || ej_shape_contains(bc->region, x + 3 * i)) {
         s->bc_mask[i] |= 1u << b;
@@ -540,6 +542,52 @@ static void ej_mark_pass(ej_set *s, int pass)
   s->ghost_dirty |= pass + 1 <= EJ_MAX_PASS_MASKS ? s->pass_mask[pass + 1] : EJ_ALL_FIELDS;
 }
 
+/* Non-reflecting boundaries on s: the dashpots' impedances (from the scene or from the material's
+ * initial moduli, as LS-DYNA's *BOUNDARY_NON_REFLECTING takes them) and the two fields that keep
+ * their work exact: nr_force (the dashpot force of the last evaluation) and nr_power. */
+static ej_err ej_set_nonreflect(ej_sim *sim, ej_set *s)
+{
+  const ej_scene *sc = sim->scene;
+  bool any = false;
+  for (int b = 0; b < sc->n_bcs; ++b) {
+    const ej_scene_bc *bc = &sc->bcs[b];
+    if (bc->kind != EJ_BC_NONREFLECT || !ej_bc_applies(bc, s->index)) continue;
+    any = true;
+    const ej_model *md = s->model;
+    const ej_real rho0 = md->rho0, rho = isnan(bc->rho) ? rho0 : bc->rho;
+    ej_real cp = bc->cp, cs = bc->cs;
+    if (!md->mat) { /* a fluid: no shear dashpot unless given */
+      if (isnan(cp))
+        return ej_error_input(&bc->loc,
+                              "non_reflecting on set '%s': material '%s' has no strength model to take the wave "
+                              "speed from; give cp (its sound speed)",
+                              s->name, md->name);
+      if (isnan(cs)) cs = 0;
+    }
+    if (isnan(cp) || isnan(cs)) {
+      ej_real K = 0, G = 0;
+      EJ_TRY(ej_material_moduli(md->mat, &K, &G));
+      if (isnan(cp)) cp = sqrt((K + 4.0 / 3.0 * G) / rho0);
+      if (isnan(cs)) cs = sqrt(G / rho0);
+    }
+    EJ_ENSURE(isfinite(cp) && isfinite(cs) && cp >= 0 && cs >= 0, EJ_ERR_PLUGIN,
+              "set '%s': material '%s' gives wave speeds c_p = %g, c_s = %g m/s for non_reflecting", s->name,
+              md->name, cp, cs);
+    s->nr_zp[b] = rho * cp;
+    s->nr_zs[b] = rho * cs;
+    s->nr_bits |= 1u << b;
+  }
+  if (!any) return EJ_OK;
+  static const ej_field_decl f[] = {
+      {.name = "nr_force", .kind = EJ_VEC3, .flags = EJ_FIELD_NO_GHOST, .unit = "N",
+       .doc = "force of the non-reflecting boundaries' dashpots on the particle"},
+      {.name = "nr_power", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "W",
+       .doc = "nr_force . v at the end of the last step (the next step's work starts from it)"}};
+  EJ_TRY(ej_set_add_field(s, &f[0], NULL));
+  EJ_TRY(ej_set_add_field(s, &f[1], NULL));
+  return EJ_OK;
+}
+
 static ej_err ej_sets_create(ej_sim *sim)
 {
   const ej_scene *sc = sim->scene;
@@ -578,6 +626,7 @@ static ej_err ej_sets_create(ej_sim *sim)
         EJ_TRY(ej_set_add_field(s, &pw[1], NULL));
         break;
       }
+    EJ_TRY(ej_set_nonreflect(sim, s));
     const ej_material *mat = s->model->mat;
     for (int k = 0; mat && k < mat->ops->n_hist; ++k) {
       /* A history variable named like a field the method or EOS declared (tlpd's "damage", the
@@ -1032,15 +1081,57 @@ static ej_err ej_zero_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   return EJ_OK;
 }
 
-/* Gravity, then constraints: fixed and prescribed-velocity components get zero acceleration. */
+/* The dashpots of the non-reflecting boundaries on particle i (Lysmer & Kuhlemeyer 1969: the traction
+ * -rho c_p v_n n - rho c_s v_t on the particle's share of the boundary, A = vol0^((d-1)/d)), at the
+ * velocity of the force evaluation (the predictor, as for artificial viscosity); adds F / m to a and
+ * returns F in f. */
+static void ej_nonreflect_force(const ej_sim *sim, const ej_set *s, ej_idx i, uint32_t mask, ej_real f[3])
+{
+  const ej_real *x = s->fields[s->f_x].data, *v = s->fields[s->f_v].data;
+  const ej_real vol0 = ((const ej_real *)s->fields[s->f_vol0].data)[i];
+  const int d = sim->scene->dimension;
+  const ej_real area = d == 3 ? cbrt(vol0 * vol0) : d == 2 ? sqrt(vol0) : 1;
+  f[0] = f[1] = f[2] = 0;
+  for (int b = 0; mask; ++b, mask >>= 1) {
+    if (!(mask & 1u)) continue;
+    const ej_scene_bc *bc = &sim->scene->bcs[b];
+    ej_real n[3] = {bc->normal[0], bc->normal[1], bc->normal[2]};
+    if (bc->radial) {
+      ej_real len = 0;
+      for (int k = 0; k < 3; ++k) n[k] = x[3 * i + k] - bc->point[k], len += n[k] * n[k];
+      len = sqrt(len);
+      if (!(len > 0)) continue; /* a particle at the centre has no outward direction */
+      for (int k = 0; k < 3; ++k) n[k] /= len;
+    }
+    const ej_real vn = v[3 * i] * n[0] + v[3 * i + 1] * n[1] + v[3 * i + 2] * n[2];
+    const ej_real zp = s->nr_zp[b] * area, zs = s->nr_zs[b] * area;
+    for (int k = 0; k < 3; ++k) f[k] -= zp * vn * n[k] + zs * (v[3 * i + k] - vn * n[k]);
+  }
+}
+
+/* Gravity, the non-reflecting dashpots, then constraints: fixed and prescribed-velocity components
+ * get zero acceleration. ctx: a bool, true inside a step (NULL: the force evaluation at t = 0). */
 static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
 {
-  (void)ctx, (void)c;
+  (void)c;
+  const bool in_step = ctx && *(const bool *)ctx;
   ej_real *a = s->fields[s->f_a].data;
-  const ej_real *g = sim->scene->gravity, *m = s->fields[s->f_m].data;
+  const ej_real *g = sim->scene->gravity, *m = s->fields[s->f_m].data, *v = s->fields[s->f_v].data;
   ej_real *pw = ej_set_field(s, "bc_power"), *pw_old = ej_set_field(s, "bc_power_old");
+  ej_real *nrf = ej_set_field(s, "nr_force"), *nrp = ej_set_field(s, "nr_power");
+  const ej_real *vh = nrf && in_step ? ej_set_field(s, "v_half") : NULL;
   for (ej_idx i = r.begin; i < r.end; ++i) {
     a[3 * i] += g[0], a[3 * i + 1] += g[1], a[3 * i + 2] += g[2];
+    if (nrf && (s->bc_mask[i] & s->nr_bits)) {
+      /* The dashpot work of the step, exact for the kinetic energy of velocity Verlet: the first
+       * half kick's, dt/2 F_n . (v_n + v_half) / 2, from F_n and F_n . v_n (kept at the end of the
+       * last step); the second half's in ej_work_chunk. */
+      ej_real *fi = nrf + 3 * i;
+      if (vh) nrp[i] = 0.25 * sim->dt * (nrp[i] + fi[0] * vh[3 * i] + fi[1] * vh[3 * i + 1] + fi[2] * vh[3 * i + 2]);
+      ej_nonreflect_force(sim, s, i, s->bc_mask[i] & s->nr_bits, fi);
+      for (int k = 0; k < 3; ++k) a[3 * i + k] += fi[k] / m[i];
+      if (!in_step) nrp[i] = fi[0] * v[3 * i] + fi[1] * v[3 * i + 1] + fi[2] * v[3 * i + 2];
+    }
     ej_real power = 0;
     uint32_t mask = s->bc_mask[i];
     for (int b = 0; mask; ++b, mask >>= 1)
@@ -1327,7 +1418,8 @@ static ej_err ej_post_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
 static ej_err ej_kick_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
 {
   (void)ctx;
-  EJ_TRY(ej_body_chunk(sim, s, NULL, c, r));
+  static const bool in_step = true;
+  EJ_TRY(ej_body_chunk(sim, s, (void *)&in_step, c, r));
   const ej_real h = 0.5 * sim->dt;
   ej_real *v = s->fields[s->f_v].data, *a = s->fields[s->f_a].data;
   const ej_real *vh = ej_set_field(s, "v_half");
@@ -1402,9 +1494,21 @@ static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   (void)ctx;
   const ej_real *vh = ej_set_field(s, "v_half"), *m = s->fields[s->f_m].data, *g = sim->scene->gravity;
   const ej_real *pw = ej_set_field(s, "bc_power"), *pw_old = ej_set_field(s, "bc_power_old");
-  ej_real w = 0, wbc = 0;
+  ej_real w = 0, wbc = 0, wnr = 0;
   if (pw)
     for (ej_idx i = r.begin; i < r.end; ++i) wbc += 0.5 * (pw_old[i] + pw[i]);
+  ej_real *nrp = ej_set_field(s, "nr_power");
+  if (nrp) {
+    /* the dashpots: the first half kick's work (nr_power, ej_body_chunk) and the second's,
+     * dt/2 F_n+1 . (v_half + v_n+1) / 2; then nr_power = F_n+1 . v_n+1 for the next step */
+    const ej_real *f = ej_set_field(s, "nr_force"), *v = s->fields[s->f_v].data;
+    for (ej_idx i = r.begin; i < r.end; ++i) {
+      const ej_real *fi = f + 3 * i, *vi = v + 3 * i, *hi = vh + 3 * i;
+      if (!(s->bc_mask[i] & s->nr_bits)) continue;
+      wnr += nrp[i] + 0.25 * sim->dt * (fi[0] * (hi[0] + vi[0]) + fi[1] * (hi[1] + vi[1]) + fi[2] * (hi[2] + vi[2]));
+      nrp[i] = fi[0] * vi[0] + fi[1] * vi[1] + fi[2] * vi[2];
+    }
+  }
   for (ej_idx i = r.begin; i < r.end; ++i) {
     ej_real gv = 0;
     uint32_t mask = s->bc_mask[i];
@@ -1417,7 +1521,7 @@ static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
       if (!fixed[k]) gv += g[k] * vh[3 * i + k];
     w += m[i] * gv;
   }
-  sim->chunk_scratch[c * EJ_NSLOT + EJ_S_WORK] = (w + wbc) * sim->dt;
+  sim->chunk_scratch[c * EJ_NSLOT + EJ_S_WORK] = (w + wbc) * sim->dt + wnr;
   return EJ_OK;
 }
 

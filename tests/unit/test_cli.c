@@ -149,7 +149,9 @@ START_TEST(test_check_and_run)
   write_file(scene, GOOD_HEAD "sets:\n  tube: {method: sph, material: gas, shape: {box: {min: [0], max: [1]}}, "
                               "spacing: 0.01, p: 1}\n"
                               "probes:\n  - {name: g, set: tube, point: [0.5], fields: [p]}\n"
-                              "  - {name: t, set: tube, point: [0.2], follow: true, fields: [v]}\n");
+                              "  - {name: t, set: tube, point: [0.2], follow: true, fields: [v]}\n"
+                              "boundaries:\n  - {region: {box: {min: [0.99], max: [2]}}, non_reflecting: {normal: [1], "
+                              "cp: 1.18}}\n");
   snprintf(args, sizeof args, "check %s", scene);
   ck_assert_int_eq(run(args, err, sizeof err), 0);
   {
@@ -162,7 +164,8 @@ START_TEST(test_check_and_run)
     fclose(f);
     ck_assert_msg(strstr(buf, "probe 'g': gauge in set 'tube' at (0.5, 0, 0) m, nearest particle 0.005 m away, 2 "
                               "columns") &&
-                      strstr(buf, "probe 't': tracer of particle id 19 of set 'tube', at (0.195, 0, 0) m"),
+                      strstr(buf, "probe 't': tracer of particle id 19 of set 'tube', at (0.195, 0, 0) m") &&
+                      strstr(buf, "on set 'tube': 1 particles, boundary 1 (1D), rho c_p 1.18, rho c_s 0 kg/(m^2 s)"),
                   "%s", buf);
   }
   char out[600];

@@ -125,7 +125,11 @@ START_TEST(test_valid_full)
                          "  - {set: gas, region: {box: {min: [0, 0, 0], max: [0.1, 0.5, 0.5]}}, fix: [x]}\n"
                          "  - {velocity: [0, 0, 1], components: [z]}\n"
                          "  - {symmetry: {point: [0, 0, 0], normal: [0, 2, 0]}}\n"
-                         "  - {periodic: {axis: z, min: 0, max: 0.5}}\n");
+                         "  - {periodic: {axis: z, min: 0, max: 0.5}}\n"
+                         "  - {set: gas, region: {box: {min: [0.9, 0, 0], max: [1, 1, 1]}}, non_reflecting: {normal: [2, 0, "
+                         "0]}}\n"
+                         "  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, non_reflecting: {center: [0, 0, 0], cp: "
+                         "1.5 km/s, cs: 0, rho: 1800}}\n");
   ck_assert_int_eq(sc->dimension, 3);
   ck_assert(fabs(sc->t_end - 2e-4) < 1e-18 && sc->cfl == 0.25 && fabs(sc->dt_max - 1e-6) < 1e-20);
   ck_assert(sc->dt_fixed == 0 && sc->max_steps == 100 && sc->skin == 0.2);
@@ -162,7 +166,7 @@ START_TEST(test_valid_full)
   const ej_real in_core[3] = {2, 0.25, 0.25}, in_box[3] = {0.5, 0.25, 0.25};
   ck_assert(ej_shape_contains(g->shape, in_box));
   ck_assert(!ej_shape_contains(g->shape, in_core) && ej_shape_contains(sc->sets[1].shape, in_core));
-  ck_assert_int_eq(sc->n_bcs, 4);
+  ck_assert_int_eq(sc->n_bcs, 6);
   ck_assert_int_eq(sc->bcs[0].kind, EJ_BC_FIX);
   ck_assert(sc->bcs[0].set == 0 && sc->bcs[0].comp[0] && !sc->bcs[0].comp[1] && sc->bcs[0].region);
   ck_assert_int_eq(sc->bcs[1].kind, EJ_BC_VELOCITY);
@@ -172,6 +176,13 @@ START_TEST(test_valid_full)
   ck_assert_int_eq(sc->bcs[3].kind, EJ_BC_PERIODIC);
   ck_assert(sc->bcs[3].axis == 2 && sc->bcs[3].lo == 0 && sc->bcs[3].hi == 0.5);
   ck_assert_int_eq(sc->bcs[3].loc.line, 35);
+  ck_assert_int_eq(sc->bcs[4].kind, EJ_BC_NONREFLECT);
+  ck_assert(sc->bcs[4].set == 0 && !sc->bcs[4].radial && sc->bcs[4].normal[0] == 1 && sc->bcs[4].region);
+  ck_assert(isnan(sc->bcs[4].rho) && isnan(sc->bcs[4].cp) && isnan(sc->bcs[4].cs));
+  ck_assert(!sc->bcs[4].comp[0] && !sc->bcs[4].comp[1] && !sc->bcs[4].comp[2]);
+  ck_assert_int_eq(sc->bcs[5].kind, EJ_BC_NONREFLECT);
+  ck_assert(sc->bcs[5].set == -1 && sc->bcs[5].radial && sc->bcs[5].point[0] == 0);
+  ck_assert(sc->bcs[5].cp == 1500 && isnan(sc->bcs[5].cs) && sc->bcs[5].rho == 1800);
 
   ej_points pts;
   ck_assert_int_eq(ej_scene_set_points(sc, 0, &pts), EJ_OK);
@@ -385,6 +396,30 @@ START_TEST(test_probes_parse)
 }
 END_TEST
 
+START_TEST(test_bad_non_reflecting)
+{
+  load_bad(HEAD SET_OK "boundaries:\n  - {set: gas, non_reflecting: {normal: [1, 0, 0]}}\n", "non_reflecting needs 'region'",
+           8, 16);
+  load_bad(HEAD SET_OK "boundaries:\n  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, non_reflecting: {cp: 1}}\n",
+           "needs one of 'normal' (a plane boundary, outward) and 'center'", 8, 71);
+  load_bad(HEAD SET_OK "boundaries:\n  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, non_reflecting: {normal: [1, 0, "
+                       "0], center: [0, 0, 0]}}\n",
+           "not both", 8, 99);
+  load_bad(HEAD SET_OK "boundaries:\n  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, non_reflecting: {normal: [0, 0, "
+                       "0]}}\n",
+           "normal must be a non-zero vector", 8, 80);
+  load_bad(HEAD SET_OK "boundaries:\n  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, non_reflecting: {normal: [1, 0, "
+                       "0], cs: -1}}\n",
+           "'cs' = -1 is out of range [0, inf) m/s", 8, 95);
+  load_bad(HEAD SET_OK "boundaries:\n  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, non_reflecting: {normal: [1, 0, "
+                       "0], cq: 1}}\n",
+           "unknown key 'cq'", 8, 91);
+  load_bad(HEAD SET_OK "boundaries:\n  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, non_reflecting: {normal: [1, 0, "
+                       "0]}, components: [x]}\n",
+           "unknown key 'components'", 8, 92);
+}
+END_TEST
+
 START_TEST(test_bad_probes)
 {
   load_bad(HEAD SET_OK "probes:\n  - {set: gsa, point: [0, 0, 0], fields: [p]}\n", "undefined set 'gsa'; did you mean 'gas'?",
@@ -470,6 +505,7 @@ int main(void)
   tcase_add_test(tc, test_bad_missing_file);
   tcase_add_test(tc, test_bad_misc);
   tcase_add_test(tc, test_bad_probes);
+  tcase_add_test(tc, test_bad_non_reflecting);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
