@@ -1083,8 +1083,8 @@ static ej_err ej_zero_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
 
 /* The dashpots of the non-reflecting boundaries on particle i (Lysmer & Kuhlemeyer 1969: the traction
  * -rho c_p v_n n - rho c_s v_t on the particle's share of the boundary, A = vol0^((d-1)/d)), at the
- * velocity of the force evaluation (the predictor, as for artificial viscosity); adds F / m to a and
- * returns F in f. */
+ * velocity of the force evaluation (the predictor, as for artificial viscosity); the force in f (the
+ * caller adds f / m to a). */
 static void ej_nonreflect_force(const ej_sim *sim, const ej_set *s, ej_idx i, uint32_t mask, ej_real f[3])
 {
   const ej_real *x = s->fields[s->f_x].data, *v = s->fields[s->f_v].data;

@@ -298,25 +298,7 @@ START_TEST(test_needs_speeds)
                     "  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 0.1, p: 1e5}\n"
                     "boundaries:\n"
                     "  - {region: {box: {min: [0.9, 0, 0], max: [1, 1, 1]}}, non_reflecting: {normal: [1, 0, 0]}}\n");
-  ej_registry *reg = NULL;
-  ej_scene *sc = NULL;
-  ej_sim *sim = NULL;
-  ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_sph_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_ideal_gas_info()), EJ_OK);
-  ck_assert_int_eq(ej_scene_load(scene, reg, &sc), EJ_OK);
-  ej_error_clear();
-  ej_run_opts o = {.struct_size = sizeof o, .check_only = true};
-  ck_assert_int_eq(ej_sim_create(sc, reg, &o, &sim), EJ_ERR_INPUT);
-  const ej_error_frame *f = ej_error_cause();
-  ck_assert_ptr_nonnull(f);
-  ck_assert_msg(strstr(f->msg, "non_reflecting on set 'gas': material 'air' has no strength model") != NULL, "%s",
-                f->msg);
-  ck_assert_int_eq(f->where.line, 8);
-  ck_assert_int_eq(f->where.col, 5);
-  ej_error_clear();
-  ej_scene_destroy(sc);
-  ej_registry_destroy(reg);
+  vrun_check_refuses(scene, "non_reflecting on set 'gas': material 'air' has no strength model", 8, 5);
   ej_test_rmtree(dir);
 }
 END_TEST

@@ -295,25 +295,7 @@ START_TEST(test_unknown_field)
   char text[sizeof probe_scene + 64];
   snprintf(text, sizeof text, "%s  - {set: gas, point: [0, 0, 0], fields: [rho, pres]}\n", probe_scene);
   vrun_write(scene, text);
-  ej_registry *reg = NULL;
-  ej_scene *sc = NULL;
-  ej_sim *sim = NULL;
-  ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_sph_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_ideal_gas_info()), EJ_OK);
-  ck_assert_int_eq(ej_scene_load(scene, reg, &sc), EJ_OK);
-  ej_error_clear();
-  ej_run_opts o = {.struct_size = sizeof o, .check_only = true};
-  ck_assert_int_eq(ej_sim_create(sc, reg, &o, &sim), EJ_ERR_INPUT);
-  const ej_error_frame *f = ej_error_cause();
-  ck_assert_ptr_nonnull(f);
-  ck_assert_msg(strstr(f->msg, "probe 'probe4': set 'gas' has no field 'pres' ('ejecta describe sph' lists") != NULL, "%s",
-                f->msg);
-  ck_assert_int_eq(f->where.line, 22);
-  ck_assert_int_eq(f->where.col, 48);
-  ej_error_clear();
-  ej_scene_destroy(sc);
-  ej_registry_destroy(reg);
+  vrun_check_refuses(scene, "probe 'probe4': set 'gas' has no field 'pres' ('ejecta describe sph' lists", 22, 48);
 }
 END_TEST
 

@@ -71,6 +71,30 @@ static inline void vrun_free(vrun *r)
   memset(r, 0, sizeof *r);
 }
 
+/* The scene at path (sph and ideal_gas plugins) loads, and `ejecta check` (ej_sim_create with
+ * check_only) refuses it as bad input: a message containing msg, at line:col. */
+static inline void vrun_check_refuses(const char *path, const char *msg, int line, int col)
+{
+  ej_registry *reg = NULL;
+  ej_scene *sc = NULL;
+  ej_sim *sim = NULL;
+  ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_sph_info()), EJ_OK);
+  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_ideal_gas_info()), EJ_OK);
+  ck_assert_int_eq(ej_scene_load(path, reg, &sc), EJ_OK);
+  ej_error_clear();
+  ej_run_opts o = {.struct_size = sizeof o, .check_only = true};
+  ck_assert_int_eq(ej_sim_create(sc, reg, &o, &sim), EJ_ERR_INPUT);
+  const ej_error_frame *f = ej_error_cause();
+  ck_assert_ptr_nonnull(f);
+  ck_assert_msg(strstr(f->msg, msg) != NULL, "%s", f->msg);
+  ck_assert_int_eq(f->where.line, line);
+  ck_assert_int_eq(f->where.col, col);
+  ej_error_clear();
+  ej_scene_destroy(sc);
+  ej_registry_destroy(reg);
+}
+
 /* A scene given as text, in a fresh temporary directory: dir/s.yaml, output dir/out.h5. */
 typedef struct vscene {
   char dir[64], scene[128], out[128];
