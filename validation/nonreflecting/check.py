@@ -158,6 +158,34 @@ boundaries:
     return s
 
 
+def scene_column(axis_vel, out, method="tlpd", w=0.32):
+    """3D: a 2 m column, 4 x 4 spacings across (dx 1 cm), periodic in y and z, a plane P (v_x) or S
+    (v_y) pulse of half-width w at normal incidence on both non-reflecting ends (the 3D share of the
+    boundary, vol0^(2/3), with waves)."""
+    dx, L, H = 0.01, 2.0, 0.04
+    strips = []
+    for i in range(int(round(L / dx))):
+        x = (i + 0.5) * dx
+        if abs(x - L / 2) < w:
+            v = math.cos(math.pi * (x - L / 2) / (2 * w)) ** 2
+            vel = f"[{v:.9g}, 0, 0]" if axis_vel == 0 else f"[0, {v:.9g}, 0]"
+            strips.append(f"      - {{region: {{box: {{min: [{x - dx / 2:.9g}, -1, -1], max: [{x + dx / 2:.9g}, 1, 1]}}}}, "
+                          f"velocity: {vel}}}")
+    return header(3, 0.25, "3.2 ms", out, every="0.4 ms") + f"""sets:
+  column:
+{METHODS[method]}    material: solid
+    shape: {{box: {{min: [0, 0, 0], max: [{L}, {H}, {H}]}}}}
+    spacing: {dx}
+    initial:
+""" + "\n".join(strips) + f"""
+boundaries:
+  - {{periodic: {{axis: y, min: 0, max: {H}}}}}
+  - {{periodic: {{axis: z, min: 0, max: {H}}}}}
+  - {{set: column, region: {{box: {{min: [-1, -1, -1], max: [{dx}, 1, 1]}}}}, non_reflecting: {{normal: [-1, 0, 0]}}}}
+  - {{set: column, region: {{box: {{min: [{L - dx}, -1, -1], max: [9, 1, 1]}}}}, non_reflecting: {{normal: [1, 0, 0]}}}}
+"""
+
+
 GAUGES = [("edge_x", 0.45, 0.0), ("diag", 0.32, 0.32), ("edge_y", 0.0, 0.45)]
 # reported beside them, not judged (added after the first runs): 0.2 m from the edges
 INNER = [("in_x", 0.3, 0.0), ("in_diag", 0.2, 0.2), ("in_y", 0.0, 0.3)]
@@ -238,7 +266,11 @@ def main():
     for name, text, tol_lo in [("p1d", scene_1d(True, os.path.join(a.out, "p1d.h5")), None),
                                ("p1d_free", scene_1d(False, os.path.join(a.out, "p1d_free.h5")), 0.9),
                                ("p2d", scene_strip(0, os.path.join(a.out, "p2d.h5")), None),
-                               ("s2d", scene_strip(1, os.path.join(a.out, "s2d.h5")), None)]:
+                               ("s2d", scene_strip(1, os.path.join(a.out, "s2d.h5")), None),
+                               ("p3d", scene_column(0, os.path.join(a.out, "p3d.h5")), None),
+                               ("s3d", scene_column(1, os.path.join(a.out, "s3d.h5")), None),
+                               ("p3d_rkpm", scene_column(0, os.path.join(a.out, "p3d_rkpm.h5"), "rkpm", 0.16), None),
+                               ("s3d_rkpm", scene_column(1, os.path.join(a.out, "s3d_rkpm.h5"), "rkpm", 0.16), None)]:
         path, wall = run(name, text)
         left, bal, absorbed, _ = energy_left(path)
         if tol_lo is None:
