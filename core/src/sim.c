@@ -1082,16 +1082,16 @@ static ej_err ej_zero_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
 }
 
 /* The dashpots of the non-reflecting boundaries on particle i (Lysmer & Kuhlemeyer 1969: the traction
- * -rho c_p v_n n - rho c_s v_t on the particle's share of the boundary, A = vol0^((d-1)/d)), at the
- * velocity of the force evaluation (the predictor, as for artificial viscosity); the force in f (the
- * caller adds f / m to a). */
-static void ej_nonreflect_force(const ej_sim *sim, const ej_set *s, ej_idx i, uint32_t mask, ej_real f[3])
+ * -rho c_p v_n n - rho c_s v_t on the particle's share of the boundary, A = vol0^((d-1)/d)) as the
+ * symmetric matrix K of F = -K v (row-major 3 x 3), summed over the boundaries in mask; n is the
+ * outward normal, given or radial from the centre at the particle's current position. */
+static void ej_nonreflect_matrix(const ej_sim *sim, const ej_set *s, ej_idx i, uint32_t mask, ej_real K[9])
 {
-  const ej_real *x = s->fields[s->f_x].data, *v = s->fields[s->f_v].data;
+  const ej_real *x = s->fields[s->f_x].data;
   const ej_real vol0 = ((const ej_real *)s->fields[s->f_vol0].data)[i];
   const int d = sim->scene->dimension;
   const ej_real area = d == 3 ? cbrt(vol0 * vol0) : d == 2 ? sqrt(vol0) : 1;
-  f[0] = f[1] = f[2] = 0;
+  for (int k = 0; k < 9; ++k) K[k] = 0;
   for (int b = 0; mask; ++b, mask >>= 1) {
     if (!(mask & 1u)) continue;
     const ej_scene_bc *bc = &sim->scene->bcs[b];
@@ -1103,9 +1103,52 @@ static void ej_nonreflect_force(const ej_sim *sim, const ej_set *s, ej_idx i, ui
       if (!(len > 0)) continue; /* a particle at the centre has no outward direction */
       for (int k = 0; k < 3; ++k) n[k] /= len;
     }
-    const ej_real vn = v[3 * i] * n[0] + v[3 * i + 1] * n[1] + v[3 * i + 2] * n[2];
     const ej_real zp = s->nr_zp[b] * area, zs = s->nr_zs[b] * area;
-    for (int k = 0; k < 3; ++k) f[k] -= zp * vn * n[k] + zs * (v[3 * i + k] - vn * n[k]);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) K[3 * r + c] += (zp - zs) * n[r] * n[c] + (r == c ? zs : 0);
+  }
+}
+
+/* The components of particle i held by an active fix or prescribed velocity. */
+static void ej_bc_fixed(const ej_sim *sim, const ej_set *s, ej_idx i, bool fixed[3])
+{
+  fixed[0] = fixed[1] = fixed[2] = false;
+  uint32_t mask = s->bc_mask[i];
+  for (int b = 0; mask; ++b, mask >>= 1)
+    if (mask & 1u)
+      if (ej_bc_active(sim, &sim->scene->bcs[b]))
+        for (int k = 0; k < 3; ++k) fixed[k] |= sim->scene->bcs[b].comp[k];
+}
+
+/* The dashpots in the second half kick, implicitly: (m I + dt/2 K) v_n+1 = m (v_half + dt/2 a), a the
+ * other forces' acceleration (components held by a constraint keep theirs). With the first half
+ * kick's explicit F_n this is the trapezoidal rule for the dashpots, stable for any c dt / dx, so
+ * an edge or corner particle under two or three boundaries does not shorten the step. F_n+1 = -K
+ * v_n+1 (zero in the held components) goes into a and nr_force. */
+static void ej_nonreflect_kick(const ej_sim *sim, ej_set *s, ej_idx i, ej_real h)
+{
+  ej_real K[9], M[9], rhs[3];
+  ej_real *v = (ej_real *)s->fields[s->f_v].data + 3 * i, *a = (ej_real *)s->fields[s->f_a].data + 3 * i;
+  ej_real *f = ej_set_field(s, "nr_force") + 3 * i;
+  const ej_real m = ((const ej_real *)s->fields[s->f_m].data)[i];
+  bool fixed[3];
+  ej_nonreflect_matrix(sim, s, i, s->bc_mask[i] & s->nr_bits, K);
+  ej_bc_fixed(sim, s, i, fixed);
+  for (int r = 0; r < 3; ++r) {
+    rhs[r] = m * v[r]; /* v = v_half + dt/2 a already */
+    for (int c = 0; c < 3; ++c) M[3 * r + c] = fixed[r] ? (r == c ? m : 0) : (r == c ? m : 0) + h * K[3 * r + c];
+  }
+  /* M is symmetric positive definite, or that with the held rows replaced by m e_r: the adjugate */
+  const ej_real adj[9] = {M[4] * M[8] - M[5] * M[7], M[2] * M[7] - M[1] * M[8], M[1] * M[5] - M[2] * M[4],
+                          M[5] * M[6] - M[3] * M[8], M[0] * M[8] - M[2] * M[6], M[2] * M[3] - M[0] * M[5],
+                          M[3] * M[7] - M[4] * M[6], M[1] * M[6] - M[0] * M[7], M[0] * M[4] - M[1] * M[3]};
+  const ej_real det = M[0] * adj[0] + M[1] * adj[3] + M[2] * adj[6];
+  ej_real w[3];
+  for (int r = 0; r < 3; ++r) w[r] = (adj[3 * r] * rhs[0] + adj[3 * r + 1] * rhs[1] + adj[3 * r + 2] * rhs[2]) / det;
+  for (int r = 0; r < 3; ++r) {
+    f[r] = fixed[r] ? 0 : -(K[3 * r] * w[0] + K[3 * r + 1] * w[1] + K[3 * r + 2] * w[2]);
+    a[r] += f[r] / m;
+    v[r] = fixed[r] ? v[r] : w[r];
   }
 }
 
@@ -1125,12 +1168,22 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
     if (nrf && (s->bc_mask[i] & s->nr_bits)) {
       /* The dashpot work of the step, exact for the kinetic energy of velocity Verlet: the first
        * half kick's, dt/2 F_n . (v_n + v_half) / 2, from F_n and F_n . v_n (kept at the end of the
-       * last step); the second half's in ej_work_chunk. */
+       * last step); the second half's in ej_work_chunk. Inside a step F_n+1 comes in the second
+       * half kick (ej_nonreflect_kick); at t = 0 it is explicit, at the initial velocity. */
       ej_real *fi = nrf + 3 * i;
-      if (vh) nrp[i] = 0.25 * sim->dt * (nrp[i] + fi[0] * vh[3 * i] + fi[1] * vh[3 * i + 1] + fi[2] * vh[3 * i + 2]);
-      ej_nonreflect_force(sim, s, i, s->bc_mask[i] & s->nr_bits, fi);
-      for (int k = 0; k < 3; ++k) a[3 * i + k] += fi[k] / m[i];
-      if (!in_step) nrp[i] = fi[0] * v[3 * i] + fi[1] * v[3 * i + 1] + fi[2] * v[3 * i + 2];
+      if (vh) {
+        nrp[i] = 0.25 * sim->dt * (nrp[i] + fi[0] * vh[3 * i] + fi[1] * vh[3 * i + 1] + fi[2] * vh[3 * i + 2]);
+      } else if (!in_step) {
+        ej_real K[9];
+        bool fixed[3];
+        ej_nonreflect_matrix(sim, s, i, s->bc_mask[i] & s->nr_bits, K);
+        ej_bc_fixed(sim, s, i, fixed);
+        for (int r = 0; r < 3; ++r) {
+          fi[r] = fixed[r] ? 0 : -(K[3 * r] * v[3 * i] + K[3 * r + 1] * v[3 * i + 1] + K[3 * r + 2] * v[3 * i + 2]);
+          a[3 * i + r] += fi[r] / m[i];
+        }
+        nrp[i] = fi[0] * v[3 * i] + fi[1] * v[3 * i + 1] + fi[2] * v[3 * i + 2];
+      }
     }
     ej_real power = 0;
     uint32_t mask = s->bc_mask[i];
@@ -1425,6 +1478,9 @@ static ej_err ej_kick_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   const ej_real *vh = ej_set_field(s, "v_half");
   for (ej_idx i = r.begin; i < r.end; ++i)
     for (int k = 0; k < 3; ++k) v[3 * i + k] = vh[3 * i + k] + h * a[3 * i + k];
+  if (s->nr_bits)
+    for (ej_idx i = r.begin; i < r.end; ++i)
+      if (s->bc_mask[i] & s->nr_bits) ej_nonreflect_kick(sim, s, i, h);
   for (int k = 0; k < s->n_fields; ++k) {
     ej_field *f = &s->fields[k];
     if (f->rate < 0) continue;
@@ -1511,12 +1567,8 @@ static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   }
   for (ej_idx i = r.begin; i < r.end; ++i) {
     ej_real gv = 0;
-    uint32_t mask = s->bc_mask[i];
-    bool fixed[3] = {false, false, false};
-    for (int b = 0; mask; ++b, mask >>= 1)
-      if (mask & 1u)
-        if (ej_bc_active(sim, &sim->scene->bcs[b]))
-          for (int k = 0; k < 3; ++k) fixed[k] |= sim->scene->bcs[b].comp[k];
+    bool fixed[3];
+    ej_bc_fixed(sim, s, i, fixed);
     for (int k = 0; k < 3; ++k)
       if (!fixed[k]) gv += g[k] * vh[3 * i + k];
     w += m[i] * gv;
