@@ -171,7 +171,7 @@ static int cmd_run(int argc, char **argv, bool check_only)
         for (ej_idx p = 0; p < s->n; ++p)
           if (s->bc_mask[p] & (1u << b)) {
             ++n;
-            area += scene->dimension == 3 ? cbrt(vol0[p] * vol0[p]) : scene->dimension == 2 ? sqrt(vol0[p]) : 1;
+            area += ej_face_area(scene->dimension, vol0[p]);
           }
         printf("non_reflecting (line %d) on set '%s': %d particles, boundary %g %s, rho c_p %g, rho c_s %g kg/(m^2 s)\n",
                scene->bcs[b].loc.line, s->name, n, area,

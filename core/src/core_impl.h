@@ -5,6 +5,7 @@
 #error "core_impl.h is private to libejecta"
 #endif
 
+#include <math.h>
 #include <stdio.h>
 
 #include "ejecta/ejecta.h"
@@ -483,6 +484,13 @@ static inline ej_real ej_spline_shape(ej_real q)
 {
   const ej_real t = 2.0 - q;
   return q < 1.0 ? 1.0 - 1.5 * q * q + 0.75 * q * q * q : q < 2.0 ? 0.25 * t * t * t : 0.0;
+}
+
+/* A particle's share of a boundary face from its volume: vol0^((d-1)/d) (3D m^2, 2D m per m of
+ * thickness, 1D 1): the non-reflecting dashpots' area (sim.c) and ejecta check's sum of it. */
+static inline ej_real ej_face_area(int dim, ej_real vol0)
+{
+  return dim == 3 ? cbrt(vol0 * vol0) : dim == 2 ? sqrt(vol0) : 1;
 }
 
 /* The owned particle of s nearest to p (the smaller id on a tie) and its squared distance (dim

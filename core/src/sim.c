@@ -1088,9 +1088,7 @@ static ej_err ej_zero_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
 static void ej_nonreflect_matrix(const ej_sim *sim, const ej_set *s, ej_idx i, uint32_t mask, ej_real K[9])
 {
   const ej_real *x = s->fields[s->f_x].data;
-  const ej_real vol0 = ((const ej_real *)s->fields[s->f_vol0].data)[i];
-  const int d = sim->scene->dimension;
-  const ej_real area = d == 3 ? cbrt(vol0 * vol0) : d == 2 ? sqrt(vol0) : 1;
+  const ej_real area = ej_face_area(sim->scene->dimension, ((const ej_real *)s->fields[s->f_vol0].data)[i]);
   for (int k = 0; k < 9; ++k) K[k] = 0;
   for (int b = 0; mask; ++b, mask >>= 1) {
     if (!(mask & 1u)) continue;
@@ -1120,16 +1118,25 @@ static void ej_bc_fixed(const ej_sim *sim, const ej_set *s, ej_idx i, bool fixed
         for (int k = 0; k < 3; ++k) fixed[k] |= sim->scene->bcs[b].comp[k];
 }
 
+/* F = -K w (zero in the held components) into f, and F / m added to a. */
+static void ej_nonreflect_apply(const ej_real K[9], const bool fixed[3], const ej_real w[3], ej_real m, ej_real f[3],
+                                ej_real a[3])
+{
+  for (int r = 0; r < 3; ++r) {
+    f[r] = fixed[r] ? 0 : -(K[3 * r] * w[0] + K[3 * r + 1] * w[1] + K[3 * r + 2] * w[2]);
+    a[r] += f[r] / m;
+  }
+}
+
 /* The dashpots in the second half kick, implicitly: (m I + dt/2 K) v_n+1 = m (v_half + dt/2 a), a the
  * other forces' acceleration (components held by a constraint keep theirs). With the first half
  * kick's explicit F_n this is the trapezoidal rule for the dashpots, stable for any c dt / dx, so
  * an edge or corner particle under two or three boundaries does not shorten the step. F_n+1 = -K
  * v_n+1 (zero in the held components) goes into a and nr_force. */
-static void ej_nonreflect_kick(const ej_sim *sim, ej_set *s, ej_idx i, ej_real h)
+static void ej_nonreflect_kick(const ej_sim *sim, ej_set *s, ej_idx i, ej_real h, ej_real *nrf)
 {
   ej_real K[9], M[9], rhs[3];
   ej_real *v = (ej_real *)s->fields[s->f_v].data + 3 * i, *a = (ej_real *)s->fields[s->f_a].data + 3 * i;
-  ej_real *f = ej_set_field(s, "nr_force") + 3 * i;
   const ej_real m = ((const ej_real *)s->fields[s->f_m].data)[i];
   bool fixed[3];
   ej_nonreflect_matrix(sim, s, i, s->bc_mask[i] & s->nr_bits, K);
@@ -1145,11 +1152,9 @@ static void ej_nonreflect_kick(const ej_sim *sim, ej_set *s, ej_idx i, ej_real h
   const ej_real det = M[0] * adj[0] + M[1] * adj[3] + M[2] * adj[6];
   ej_real w[3];
   for (int r = 0; r < 3; ++r) w[r] = (adj[3 * r] * rhs[0] + adj[3 * r + 1] * rhs[1] + adj[3 * r + 2] * rhs[2]) / det;
-  for (int r = 0; r < 3; ++r) {
-    f[r] = fixed[r] ? 0 : -(K[3 * r] * w[0] + K[3 * r + 1] * w[1] + K[3 * r + 2] * w[2]);
-    a[r] += f[r] / m;
-    v[r] = fixed[r] ? v[r] : w[r];
-  }
+  ej_nonreflect_apply(K, fixed, w, m, nrf + 3 * i, a);
+  for (int r = 0; r < 3; ++r)
+    if (!fixed[r]) v[r] = w[r];
 }
 
 /* Gravity, the non-reflecting dashpots, then constraints: fixed and prescribed-velocity components
@@ -1171,17 +1176,14 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
        * last step); the second half's in ej_work_chunk. Inside a step F_n+1 comes in the second
        * half kick (ej_nonreflect_kick); at t = 0 it is explicit, at the initial velocity. */
       ej_real *fi = nrf + 3 * i;
-      if (vh) {
+      if (in_step) {
         nrp[i] = 0.25 * sim->dt * (nrp[i] + fi[0] * vh[3 * i] + fi[1] * vh[3 * i + 1] + fi[2] * vh[3 * i + 2]);
-      } else if (!in_step) {
+      } else {
         ej_real K[9];
         bool fixed[3];
         ej_nonreflect_matrix(sim, s, i, s->bc_mask[i] & s->nr_bits, K);
         ej_bc_fixed(sim, s, i, fixed);
-        for (int r = 0; r < 3; ++r) {
-          fi[r] = fixed[r] ? 0 : -(K[3 * r] * v[3 * i] + K[3 * r + 1] * v[3 * i + 1] + K[3 * r + 2] * v[3 * i + 2]);
-          a[3 * i + r] += fi[r] / m[i];
-        }
+        ej_nonreflect_apply(K, fixed, v + 3 * i, m[i], fi, a + 3 * i);
         nrp[i] = fi[0] * v[3 * i] + fi[1] * v[3 * i + 1] + fi[2] * v[3 * i + 2];
       }
     }
@@ -1478,9 +1480,11 @@ static ej_err ej_kick_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   const ej_real *vh = ej_set_field(s, "v_half");
   for (ej_idx i = r.begin; i < r.end; ++i)
     for (int k = 0; k < 3; ++k) v[3 * i + k] = vh[3 * i + k] + h * a[3 * i + k];
-  if (s->nr_bits)
+  if (s->nr_bits) {
+    ej_real *nrf = ej_set_field(s, "nr_force");
     for (ej_idx i = r.begin; i < r.end; ++i)
-      if (s->bc_mask[i] & s->nr_bits) ej_nonreflect_kick(sim, s, i, h);
+      if (s->bc_mask[i] & s->nr_bits) ej_nonreflect_kick(sim, s, i, h, nrf);
+  }
   for (int k = 0; k < s->n_fields; ++k) {
     ej_field *f = &s->fields[k];
     if (f->rate < 0) continue;

@@ -13,39 +13,12 @@ const ej_plugin_info *ej_plugin_elastic_info(void);
 #define RHO 2000.0
 #define YOUNG 1.0e9
 
-typedef struct nrun {
-  ej_registry *reg;
-  ej_scene *scene;
-  ej_sim *sim;
-} nrun;
-
-static void nrun_open(nrun *r, const char *scene, const char *out, int threads, const char *restart)
+/* A run of the scene with the tlpd and elastic plugins (validation_common.h's vrun). */
+static void nrun_open(vrun *r, const char *scene, const char *out, int threads, const char *restart)
 {
-  memset(r, 0, sizeof *r);
-  ck_assert_int_eq(ej_registry_create(&r->reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_tlpd_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_elastic_info()), EJ_OK);
-  ej_err rc = ej_scene_load(scene, r->reg, &r->scene);
-  if (rc == EJ_OK) {
-    ej_run_opts o = {.struct_size = sizeof o, .output = out, .threads = threads, .restart = restart};
-    rc = ej_sim_create(r->scene, r->reg, &o, &r->sim);
-  }
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-}
-
-static void nrun_go(nrun *r)
-{
-  ej_err rc = ej_sim_run(r->sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-}
-
-static void nrun_free(nrun *r)
-{
-  ej_sim_destroy(r->sim);
-  ej_scene_destroy(r->scene);
-  ej_registry_destroy(r->reg);
+  const ej_plugin_info *p[] = {ej_plugin_tlpd_info(), ej_plugin_elastic_info()};
+  ej_run_opts o = {.struct_size = sizeof o, .output = out, .threads = threads, .restart = restart};
+  vrun_open_with(r, scene, &o, -1, p, 2);
 }
 
 /* ------------------------------------------------------------------ the dashpot force */
@@ -79,7 +52,7 @@ START_TEST(test_dashpot_force)
   snprintf(scene, sizeof scene, "%s/s.yaml", dir);
   snprintf(out, sizeof out, "%s/o.h5", dir);
   vrun_write(scene, force_scene);
-  nrun r;
+  vrun r;
   nrun_open(&r, scene, out, 1, NULL);
   const ej_set *s = r.sim->sets[0];
   const double nu = 0.25, K = YOUNG / (3 * (1 - 2 * nu)), G = YOUNG / (2 * (1 + nu));
@@ -118,7 +91,7 @@ START_TEST(test_dashpot_force)
   ck_assert_int_eq(n_sphere, 100);
   ck_assert_int_eq(n_free, 1000 - 190);
   ck_assert_msg(amax > 1e3 && err < 1e-12 * amax, "max |a - F/m| %g of %g", err, amax);
-  nrun_free(&r);
+  vrun_free(&r);
   ej_test_rmtree(dir);
 }
 END_TEST
@@ -153,11 +126,11 @@ START_TEST(test_stiff_dashpot)
   snprintf(out, sizeof out, "%s/o.h5", dir);
   snprintf(text, sizeof text, stiff_fmt, "min: [0, 0, 0], max: [0.5, 0.5, 0.5]");
   vrun_write(scene, text);
-  nrun r;
+  vrun r;
   nrun_open(&r, scene, out, 1, NULL);
   const double ke0 = r.sim->energy.kinetic, rate_dt = 15000 / 0.05 * r.sim->dt;
   ck_assert_msg(rate_dt > 2, "c_p dt / dx = %g: not a stiff boundary", rate_dt);
-  nrun_go(&r);
+  vrun_run(&r);
   ck_assert_int_eq((int)r.sim->step, 40);
   const ej_set *s = r.sim->sets[0];
   const ej_real *v = ej_set_field(s, "v");
@@ -169,17 +142,17 @@ START_TEST(test_stiff_dashpot)
   /* tlpd books its internal energy from the step's velocities, which the stiff dashpots change
    * strongly at the boundary: measured 3.8e-4 of KE0; the dashpots' own work is exact (below) */
   ck_assert_msg(fabs(r.sim->energy.balance) < 1e-3 * ke0, "balance %g of %g", r.sim->energy.balance, ke0);
-  nrun_free(&r);
+  vrun_free(&r);
   /* one particle (no bonds: the dashpots alone, on both boundaries): the budget to round-off */
   snprintf(text, sizeof text, stiff_fmt, "min: [0.45, 0.45, 0], max: [0.5, 0.5, 0.05]");
   vrun_write(scene, text);
   nrun_open(&r, scene, out, 1, NULL);
   ck_assert_int_eq((int)ej_set_count(r.sim->sets[0]), 1);
-  nrun_go(&r);
+  vrun_run(&r);
   ck_assert_msg(-r.sim->energy.external > 0.5 * ke0 / 1000, "absorbed %g", -r.sim->energy.external);
   ck_assert_msg(fabs(r.sim->energy.balance) < 1e-12 * r.sim->energy.total0, "one particle: balance %g of %g",
                 r.sim->energy.balance, r.sim->energy.total0);
-  nrun_free(&r);
+  vrun_free(&r);
   ej_test_rmtree(dir);
 }
 END_TEST
@@ -253,10 +226,10 @@ START_TEST(test_bar_absorbs)
   for (int absorbing = 0; absorbing < 2; ++absorbing) {
     bar_scene(text, sizeof text, absorbing, out);
     vrun_write(scene, text);
-    nrun r;
+    vrun r;
     nrun_open(&r, scene, out, 1, NULL);
     const double e0 = r.sim->energy.total0;
-    nrun_go(&r);
+    vrun_run(&r);
     const double bal = max_abs_balance(out);
     const ej_energy *en = &r.sim->energy;
     left[absorbing] = (en->kinetic + en->internal) / e0;
@@ -265,7 +238,7 @@ START_TEST(test_bar_absorbs)
       ck_assert_msg(fabs(-en->external / e0 - (1 - left[1])) < 1e-4, "absorbed %g, left %g", -en->external / e0, left[1]);
     else
       ck_assert(en->external == 0);
-    nrun_free(&r);
+    vrun_free(&r);
   }
   ck_assert_msg(left[0] > 0.999, "free ends: %g of E0 left", left[0]);
   ck_assert_msg(left[1] < 0.01, "non-reflecting ends: %g of E0 left", left[1]);
@@ -321,25 +294,25 @@ START_TEST(test_threads_and_restart)
   snprintf(text, sizeof text, strip_head, 60);
   vrun_write(half, text);
   for (int k = 0; k < 4; ++k) snprintf(o[k], sizeof o[k], "%s/o%d.h5", dir, k);
-  nrun a, b, c, d;
+  vrun a, b, c, d;
   nrun_open(&a, full, o[0], 1, NULL);
-  nrun_go(&a);
+  vrun_run(&a);
   ck_assert_int_eq((int)a.sim->step, 120);
   ck_assert_msg(-a.sim->energy.external > 0.3 * a.sim->energy.total0, "absorbed %g of %g", -a.sim->energy.external,
                 a.sim->energy.total0);
   nrun_open(&b, full, o[1], 2, NULL);
-  nrun_go(&b);
+  vrun_run(&b);
   same_state(a.sim, b.sim, " between 1 and 2 threads");
   nrun_open(&c, half, o[2], 1, NULL);
-  nrun_go(&c);
+  vrun_run(&c);
   nrun_open(&d, full, o[3], 1, o[2]);
-  nrun_go(&d);
+  vrun_run(&d);
   ck_assert_int_eq((int)d.sim->step, 120);
   same_state(a.sim, d.sim, " after a restart at step 60");
-  nrun_free(&a);
-  nrun_free(&b);
-  nrun_free(&c);
-  nrun_free(&d);
+  vrun_free(&a);
+  vrun_free(&b);
+  vrun_free(&c);
+  vrun_free(&d);
   ej_test_rmtree(dir);
 }
 END_TEST

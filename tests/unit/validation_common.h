@@ -39,14 +39,15 @@ static inline void vrun_write(const char *path, const char *text)
   fclose(f);
 }
 
-/* Loads scene_path; max_steps >= 0 overrides the scene's; then creates the sim with the given
- * options. The caller runs it (ej_sim_run) and frees it with vrun_free. */
-static inline void vrun_open(vrun *r, const char *scene_path, const ej_run_opts *opts, int64_t max_steps)
+/* Loads scene_path with the np statically linked plugins; max_steps >= 0 overrides the scene's;
+ * then creates the sim with the given options. The caller runs it (vrun_run) and frees it with
+ * vrun_free. */
+static inline void vrun_open_with(vrun *r, const char *scene_path, const ej_run_opts *opts, int64_t max_steps,
+                                  const ej_plugin_info *const *plugins, int np)
 {
   memset(r, 0, sizeof *r);
   ck_assert_int_eq(ej_registry_create(&r->reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_sph_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r->reg, ej_plugin_ideal_gas_info()), EJ_OK);
+  for (int k = 0; k < np; ++k) ck_assert_int_eq(ej_registry_add_static(r->reg, plugins[k]), EJ_OK);
   ej_err rc = ej_scene_load(scene_path, r->reg, &r->scene);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
@@ -54,6 +55,13 @@ static inline void vrun_open(vrun *r, const char *scene_path, const ej_run_opts 
   rc = ej_sim_create(r->scene, r->reg, opts, &r->sim);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
+}
+
+/* vrun_open_with the sph and ideal_gas plugins. */
+static inline void vrun_open(vrun *r, const char *scene_path, const ej_run_opts *opts, int64_t max_steps)
+{
+  const ej_plugin_info *p[] = {ej_plugin_sph_info(), ej_plugin_ideal_gas_info()};
+  vrun_open_with(r, scene_path, opts, max_steps, p, 2);
 }
 
 static inline void vrun_run(vrun *r)
