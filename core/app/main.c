@@ -179,6 +179,39 @@ static int cmd_run(int argc, char **argv, bool check_only)
                s->nr_zs[b]);
       }
     }
+    for (int b = 0; b < scene->n_bcs; ++b) { /* each pressure load: its face, and what a blast puts on it */
+      const ej_scene_bc *bc = &scene->bcs[b];
+      if (bc->kind != EJ_BC_PRESSURE) continue;
+      for (int i = 0; i < sim->n_sets; ++i) {
+        const ej_set *s = sim->sets[i];
+        if (!(s->pr_bits & (1u << b))) continue;
+        const ej_real *vol0 = ej_set_field(s, "vol0"), *x = ej_set_field(s, "x");
+        int n = 0;
+        double area = 0, zlo = INFINITY, zhi = 0, tlo = INFINITY, thi = 0, plo = INFINITY, phi = 0, imp = 0;
+        for (ej_idx p = 0; p < s->n; ++p) {
+          if (!(s->bc_mask[p] & (1u << b))) continue;
+          const ej_real A = ej_face_area(scene->dimension, vol0[p]);
+          ++n;
+          area += A;
+          ej_real nv[3];
+          if (bc->source != EJ_PRESSURE_BLAST || !ej_pressure_normal(bc, x + 3 * p, nv)) continue;
+          ej_blast_face f;
+          ej_blast_peak(bc->burst, bc->tnt, bc->charge, x + 3 * p, nv, &f);
+          zlo = fmin(zlo, f.z), zhi = fmax(zhi, f.z);
+          tlo = fmin(tlo, f.t_a), thi = fmax(thi, f.t_a);
+          plo = fmin(plo, f.p), phi = fmax(phi, f.p);
+          imp += A * f.impulse;
+        }
+        const char *unit = scene->dimension == 3 ? "m^2" : scene->dimension == 2 ? "m (per m of thickness)" : "(1D)";
+        printf("pressure (line %d) on set '%s': %d particles, face %g %s", bc->loc.line, s->name, n, area, unit);
+        if (bc->source == EJ_PRESSURE_BLAST)
+          printf("; %g kg TNT %s burst: Z %.4g-%.4g m/kg^(1/3), arrival %.4g-%.4g s after detonation, peak %.4g-%.4g "
+                 "Pa, impulse on the face %.4g N s%s\n",
+                 bc->tnt, bc->burst == EJ_BURST_SURFACE ? "surface" : "air", zlo, zhi, tlo, thi, plo, phi, imp,
+                 scene->dimension == 2 ? " per m" : "");
+        else printf("\n");
+      }
+    }
     printf("%s: OK (%lld particles, dimension %d, end time %g s)\n", scene_path, total, scene->dimension,
            scene->t_end);
   } else {

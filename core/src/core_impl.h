@@ -200,7 +200,18 @@ typedef struct ej_scene_set {
   ej_scene_init *init;   /* init[0] is the set-wide one (region NULL) */
 } ej_scene_set;
 
-typedef enum ej_bc_kind { EJ_BC_FIX, EJ_BC_VELOCITY, EJ_BC_SYMMETRY, EJ_BC_PERIODIC, EJ_BC_NONREFLECT } ej_bc_kind;
+typedef enum ej_bc_kind {
+  EJ_BC_FIX,
+  EJ_BC_VELOCITY,
+  EJ_BC_SYMMETRY,
+  EJ_BC_PERIODIC,
+  EJ_BC_NONREFLECT,
+  EJ_BC_PRESSURE
+} ej_bc_kind;
+
+/* PRESSURE: where p(t) comes from */
+typedef enum ej_pressure_source { EJ_PRESSURE_VALUE, EJ_PRESSURE_CURVE, EJ_PRESSURE_BLAST } ej_pressure_source;
+enum { EJ_BURST_AIR = 0, EJ_BURST_SURFACE = 1 };
 
 typedef struct ej_scene_bc {
   ej_bc_kind kind;
@@ -214,6 +225,13 @@ typedef struct ej_scene_bc {
                                 * NONREFLECT: outward unit normal, or (radial) the centre in point */
   bool radial;                 /* NONREFLECT: normal = (x - point) / |x - point| */
   ej_real rho, cp, cs;         /* NONREFLECT: impedance overrides; NAN = from the set's material */
+  bool cavity;                 /* PRESSURE, radial: the face looks at point (its outward normal is -radial) */
+  ej_pressure_source source;   /* PRESSURE: value, curve or blast */
+  ej_real p_value;             /* PRESSURE value: constant, Pa */
+  int n_curve;                 /* PRESSURE curve: points (t, p), t increasing; end values hold outside */
+  ej_real *curve_t, *curve_p;
+  int burst;                   /* PRESSURE blast: EJ_BURST_AIR (spherical) or EJ_BURST_SURFACE (hemispherical) */
+  ej_real tnt, t_det, charge[3]; /* PRESSURE blast: TNT mass (kg), detonation time, charge centre */
   int axis;                    /* PERIODIC: 0, 1, 2 */
   ej_real lo, hi;              /* PERIODIC: period [lo, hi) */
 } ej_scene_bc;
@@ -389,6 +407,7 @@ struct ej_set {
   /* non_reflecting bcs[k]: the dashpots' impedances rho c_p and rho c_s on this set (kg/(m^2 s)) */
   ej_real nr_zp[32], nr_zs[32];
   uint32_t nr_bits; /* bit k: bcs[k] is a non-reflecting boundary on this set */
+  uint32_t pr_bits; /* bit k: bcs[k] is a pressure load on this set */
   /* Ghost refresh by need (bit k = field k, EJ_MAX_FIELDS <= 64): fields written since the last
    * refresh; what each method pass and post_step writes (ej_method_ops.pass_writes; all bits when
    * the method does not say, or past EJ_MAX_PASS_MASKS passes); fields the integrator writes. */
@@ -492,6 +511,37 @@ static inline ej_real ej_face_area(int dim, ej_real vol0)
 {
   return dim == 3 ? cbrt(vol0 * vol0) : dim == 2 ? sqrt(vol0) : 1;
 }
+
+/* Kingery-Bulmash air-blast curves (blast.c): scaled values at Z = R / W^(1/3) (m/kg^(1/3)), SI:
+ * peak incident and normally reflected overpressure (Pa), their impulses over W^(1/3) (Pa s/kg^(1/3)),
+ * arrival time and positive duration over W^(1/3) (s/kg^(1/3)). Z is clamped into the fitted range. */
+typedef struct ej_blast_kb {
+  ej_real p_i, p_r, i_i, i_r, t_a, t_d;
+} ej_blast_kb;
+void ej_blast_range(int burst, ej_real *z_min, ej_real *z_max);
+void ej_blast_curves(int burst, ej_real z, ej_blast_kb *out);
+/* The decay a of the Friedlander pulse with peak P, impulse I and duration *t_d; when even a = 0 (a
+ * triangle) cannot carry I, *t_d becomes 2 I / P and a = 0. */
+ej_real ej_blast_decay(ej_real P, ej_real I, ej_real *t_d);
+ej_real ej_blast_friedlander(ej_real P, ej_real a, ej_real t_d, ej_real tau);
+/* Overpressure at time t on a face at x with outward unit normal n, from w_tnt kg of TNT at charge
+ * detonated at t_det (Randers-Pehrson & Bannister's angle rule). */
+ej_real ej_blast_pressure(int burst, ej_real w_tnt, const ej_real charge[3], ej_real t_det, const ej_real x[3],
+                         const ej_real n[3], ej_real t);
+
+/* At a face point x (outward normal n): scaled distance, arrival time (s, from detonation), peak
+ * overpressure (Pa) and impulse (Pa s) of the blast load there. */
+typedef struct ej_blast_face {
+  ej_real z, t_a, p, impulse;
+} ej_blast_face;
+void ej_blast_peak(int burst, ej_real w_tnt, const ej_real charge[3], const ej_real x[3], const ej_real n[3],
+                   ej_blast_face *out);
+
+/* The force F of pressure load bc on a particle at x with volume vol0 at time t (sim.c): -p A n on
+ * its share A = ej_face_area of the face, n the face's outward normal there; returns p. */
+/* The outward unit normal of pressure load bc's face at x; false at a radial face's centre. */
+bool ej_pressure_normal(const ej_scene_bc *bc, const ej_real x[3], ej_real n[3]);
+ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_real vol0, ej_real t, ej_real F[3]);
 
 /* The owned particle of s nearest to p (the smaller id on a tie) and its squared distance (dim
  * components); -1 for an empty set. */

@@ -214,6 +214,38 @@ static const ej_param ej_nonrefl_params[] = {
     {0}};
 static const char *const ej_nonrefl_manual[] = {"normal", "center", NULL};
 
+/* pressure: a load p(t) on a face (docs/core.md "Pressure loads"); the normal, the curve and the
+ * blast block are parsed by hand. */
+typedef struct ej_pressure_cfg {
+  ej_real value;
+  bool cavity;
+} ej_pressure_cfg;
+
+static const ej_param ej_pressure_params[] = {
+    EJ_PARAM_REAL(ej_pressure_cfg, value, "Pa", 0, 0, 0, 0,
+                  "Constant pressure from t = 0 (one of value, curve, blast); negative pulls."),
+    EJ_PARAM_BOOL(ej_pressure_cfg, cavity, 0,
+                  "With center: the face is a cavity wall around center (outward normal towards it), so the "
+                  "pressure pushes away from center; without: a convex face, pushed towards it."),
+    {0}};
+static const char *const ej_pressure_manual[] = {"normal", "center", "curve", "blast", NULL};
+
+typedef struct ej_blast_cfg {
+  ej_real tnt, time;
+  int burst;
+} ej_blast_cfg;
+
+static const char *const ej_burst_names[] = {"air", "surface", NULL};
+static const ej_param ej_blast_params[] = {
+    EJ_PARAM_REAL(ej_blast_cfg, tnt, "kg", 0, 0, 0, EJ_PF_REQUIRED | EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN,
+                  "TNT-equivalent mass W of the charge."),
+    EJ_PARAM_ENUM(ej_blast_cfg, burst, ej_burst_names, "air",
+                  "air: spherical free-air burst; surface: hemispherical burst on the ground (the reflected "
+                  "ground wave included), Kingery-Bulmash curves of each."),
+    EJ_PARAM_REAL(ej_blast_cfg, time, "s", 0, 0, 0, EJ_PF_HAS_MIN, "Detonation time."),
+    {0}};
+static const char *const ej_blast_manual[] = {"charge", NULL};
+
 /* ------------------------------------------------------------------ loader state */
 
 typedef struct ej_loader {
@@ -636,34 +668,128 @@ static ej_err ej_parse_components(const ej_node *n, int dim, const char *what, b
   return EJ_OK;
 }
 
+
+/* An outward unit normal (a plane face) or a centre (a spherical one), as non_reflecting and
+ * pressure take them; what names the block in the messages. */
+static ej_err ej_face_normal(ej_loader *L, const ej_node *v, const char *what, ej_scene_bc *bc)
+{
+  const int dim = L->sc->dimension;
+  const ej_node *nn = ej_node_get(v, "normal"), *cn = ej_node_get(v, "center");
+  if (!nn == !cn)
+    return ej_error_input(nn && cn ? &cn->loc : &v->loc,
+                          "%s needs one of 'normal' (a plane face, outward) and 'center' (a spherical one)%s", what,
+                          nn ? ", not both" : "");
+  if (nn) {
+    EJ_TRY(ej_node_vector(nn, dim, "1", bc->normal));
+    ej_real len = 0;
+    for (int k = 0; k < 3; ++k) len += bc->normal[k] * bc->normal[k];
+    len = sqrt(len);
+    if (!(len > 0) || !isfinite(len)) return ej_error_input(&nn->loc, "%s normal must be a non-zero vector", what);
+    for (int k = 0; k < 3; ++k) bc->normal[k] /= len;
+  } else {
+    bc->radial = true;
+    EJ_TRY(ej_node_vector(cn, dim, "m", bc->point));
+  }
+  return EJ_OK;
+}
+
+/* pressure: {normal | center [, cavity], one of value, curve: [[t, p], ...], blast: {charge, tnt, burst, time}} */
+static ej_err ej_parse_pressure(ej_loader *L, const ej_node *v, ej_scene_bc *bc)
+{
+  ej_pressure_cfg cfg = {0};
+  EJ_TRY(ej_params_apply(ej_pressure_params, &cfg, v, "pressure", ej_pressure_manual, NULL));
+  EJ_TRY(ej_face_normal(L, v, "pressure", bc));
+  const ej_node *cav = ej_node_get(v, "cavity");
+  if (cav && !bc->radial)
+    return ej_error_input(&cav->loc, "cavity is for a face around 'center'; a plane face gives its outward normal");
+  bc->cavity = cfg.cavity;
+  const char *const src[] = {"value", "curve", "blast"};
+  int which = -1;
+  for (int k = 0; k < 3; ++k)
+    if (ej_node_get(v, src[k])) {
+      if (which >= 0)
+        return ej_error_input(ej_node_key_loc(v, src[k]), "pressure takes one of value, curve, blast; found both "
+                              "'%s' and '%s'", src[which], src[k]);
+      which = k;
+    }
+  if (which < 0)
+    return ej_error_input(&v->loc, "pressure needs one of 'value' (a constant, e.g. 1 MPa), 'curve' ([[t, p], ...]) "
+                                   "and 'blast' ({charge, tnt})");
+  if (which == 0) {
+    bc->source = EJ_PRESSURE_VALUE;
+    bc->p_value = cfg.value;
+    if (!isfinite(bc->p_value)) return ej_error_input(&ej_node_get(v, "value")->loc, "pressure value must be finite");
+  } else if (which == 1) {
+    bc->source = EJ_PRESSURE_CURVE;
+    const ej_node *c = ej_node_get(v, "curve");
+    if (c->type != EJ_NODE_SEQ || c->n < 1)
+      return ej_error_input(&c->loc, "curve: expected a list of [time, pressure] points, e.g. [[0, 0], [1 ms, 2 MPa]]"
+                                     ", got %s", c->type == EJ_NODE_SEQ ? "an empty list" : ej_kind_word(c));
+    bc->curve_t = ej_malloc((size_t)c->n * sizeof *bc->curve_t);
+    bc->curve_p = ej_malloc((size_t)c->n * sizeof *bc->curve_p);
+    EJ_ENSURE(bc->curve_t && bc->curve_p, EJ_ERR_MEM, "out of memory");
+    bc->n_curve = c->n;
+    for (int k = 0; k < c->n; ++k) {
+      const ej_node *pt = c->items[k];
+      if (pt->type != EJ_NODE_SEQ || pt->n != 2 || pt->items[0]->type != EJ_NODE_SCALAR ||
+          pt->items[1]->type != EJ_NODE_SCALAR)
+        return ej_error_input(&pt->loc, "curve point %d: expected [time, pressure], e.g. [0.5 ms, 2 MPa]", k + 1);
+      double t, p;
+      EJ_TRY(ej_units_parse(pt->items[0]->text, "s", &pt->items[0]->loc, &t));
+      EJ_TRY(ej_units_parse(pt->items[1]->text, "Pa", &pt->items[1]->loc, &p));
+      if (!isfinite(t) || !isfinite(p))
+        return ej_error_input(&pt->loc, "curve point %d: time and pressure must be finite", k + 1);
+      if (k > 0 && !(t > bc->curve_t[k - 1]))
+        return ej_error_input(&pt->items[0]->loc, "curve point %d: time %g s must be after the previous point's %g s",
+                              k + 1, t, bc->curve_t[k - 1]);
+      bc->curve_t[k] = t;
+      bc->curve_p[k] = p;
+    }
+  } else {
+    bc->source = EJ_PRESSURE_BLAST;
+    const ej_node *bl = ej_node_get(v, "blast");
+    EJ_TRY(ej_expect_map(bl, "blast"));
+    ej_blast_cfg bc_cfg = {0};
+    EJ_TRY(ej_params_apply(ej_blast_params, &bc_cfg, bl, "blast", ej_blast_manual, NULL));
+    const ej_node *ch = ej_node_get(bl, "charge");
+    if (!ch) return ej_error_input(&bl->loc, "blast needs 'charge': the centre of the charge, e.g. [0, 0, 1 m]");
+    EJ_TRY(ej_node_vector(ch, L->sc->dimension, "m", bc->charge));
+    bc->tnt = bc_cfg.tnt;
+    bc->t_det = bc_cfg.time;
+    bc->burst = bc_cfg.burst == 1 ? EJ_BURST_SURFACE : EJ_BURST_AIR;
+  }
+  return EJ_OK;
+}
+
 static ej_err ej_parse_bc(ej_loader *L, int index, ej_scene_bc *bc, const ej_node *n)
 {
   const int dim = L->sc->dimension;
   EJ_TRY(ej_expect_map(n, "a boundary condition"));
   bc->loc = n->loc;
   bc->set = -1;
-  static const char *const kinds[] = {"fix", "velocity", "symmetry", "periodic", "non_reflecting", NULL};
+  static const char *const kinds[] = {"fix", "velocity", "symmetry", "periodic", "non_reflecting", "pressure", NULL};
   int kind = -1;
   for (int k = 0; kinds[k]; ++k)
     if (ej_node_get(n, kinds[k])) {
       if (kind >= 0)
         return ej_error_input(ej_node_key_loc(n, kinds[k]), "a boundary condition is one of fix, velocity, symmetry, "
-                              "periodic, non_reflecting; found both '%s' and '%s'", kinds[kind], kinds[k]);
+                              "periodic, non_reflecting, pressure; found both '%s' and '%s'", kinds[kind], kinds[k]);
       kind = k;
     }
   if (kind < 0) {
-    static const char *const all[] = {"fix", "velocity", "symmetry", "periodic", "non_reflecting",
-                                      "set", "region",   "components", NULL};
+    static const char *const all[] = {"fix", "velocity", "symmetry",   "periodic", "non_reflecting",
+                                      "pressure", "set", "region", "components", NULL};
     EJ_TRY(ej_check_keys(n, "a boundary condition", all));
     return ej_error_input(&n->loc, "a boundary condition needs one of fix, velocity, symmetry, periodic, "
-                                   "non_reflecting");
+                                   "non_reflecting, pressure");
   }
   static const char *const keys_fix[] = {"fix", "set", "region", NULL};
   static const char *const keys_vel[] = {"velocity", "set", "region", "components", "until", NULL};
   static const char *const keys_sym[] = {"symmetry", "set", NULL};
   static const char *const keys_per[] = {"periodic", "set", NULL};
   static const char *const keys_nr[] = {"non_reflecting", "set", "region", NULL};
-  static const char *const *const keys[] = {keys_fix, keys_vel, keys_sym, keys_per, keys_nr};
+  static const char *const keys_pr[] = {"pressure", "set", "region", NULL};
+  static const char *const *const keys[] = {keys_fix, keys_vel, keys_sym, keys_per, keys_nr, keys_pr};
   char what[EJ_WHAT_MAX];
   snprintf(what, sizeof what, "a %s boundary condition", kinds[kind]);
   EJ_TRY(ej_check_keys(n, what, keys[kind]));
@@ -746,29 +872,20 @@ static ej_err ej_parse_bc(ej_loader *L, int index, ej_scene_bc *bc, const ej_nod
                             "(one particle thick)");
     ej_nonrefl_cfg cfg = {0};
     EJ_TRY(ej_params_apply(ej_nonrefl_params, &cfg, v, "non_reflecting", ej_nonrefl_manual, NULL));
-    const ej_node *nn = ej_node_get(v, "normal"), *cn = ej_node_get(v, "center");
-    if (!nn == !cn)
-      return ej_error_input(nn && cn ? &cn->loc : &v->loc,
-                            "non_reflecting needs one of 'normal' (a plane boundary, outward) and 'center' (a "
-                            "spherical one)%s",
-                            nn ? ", not both" : "");
-    if (nn) {
-      EJ_TRY(ej_node_vector(nn, dim, "1", bc->normal));
-      ej_real len = 0;
-      for (int k = 0; k < 3; ++k) len += bc->normal[k] * bc->normal[k];
-      len = sqrt(len);
-      if (!(len > 0) || !isfinite(len))
-        return ej_error_input(&nn->loc, "non_reflecting normal must be a non-zero vector");
-      for (int k = 0; k < 3; ++k) bc->normal[k] /= len;
-    } else {
-      bc->radial = true;
-      EJ_TRY(ej_node_vector(cn, dim, "m", bc->point));
-    }
+    EJ_TRY(ej_face_normal(L, v, "non_reflecting", bc));
     bc->rho = cfg.rho > 0 ? cfg.rho : NAN;
     bc->cp = cfg.cp > 0 ? cfg.cp : NAN;
     bc->cs = cfg.cs > 0 ? cfg.cs : NAN;
     break;
   }
+  case 5:
+    bc->kind = EJ_BC_PRESSURE;
+    if (!region)
+      return ej_error_input(ej_node_key_loc(n, "pressure"),
+                            "pressure needs 'region': the layer of particles on the loaded face (one particle "
+                            "thick)");
+    EJ_TRY(ej_parse_pressure(L, v, bc));
+    break;
   }
   return EJ_OK;
 }
@@ -1064,7 +1181,11 @@ void ej_scene_free(ej_scene *sc)
     ej_free(s->init);
   }
   ej_free(sc->sets);
-  for (int k = 0; k < sc->n_bcs; ++k) ej_shape_destroy(sc->bcs[k].region);
+  for (int k = 0; k < sc->n_bcs; ++k) {
+    ej_shape_destroy(sc->bcs[k].region);
+    ej_free(sc->bcs[k].curve_t);
+    ej_free(sc->bcs[k].curve_p);
+  }
   ej_free(sc->bcs);
   ej_shape_destroy(sc->domain);
   for (int k = 0; k < sc->n_interactions; ++k) ej_free(sc->interactions[k].config);
@@ -1134,6 +1255,8 @@ ej_err ej_scene_describe(ej_buf *b)
       {"symmetry", "{point, normal}: mirror plane, the normal into the domain (mirror ghosts)"},
       {"periodic", "{axis, min, max} (below)"},
       {"non_reflecting", "{normal | center, rho, cp, cs} (below): viscous dashpots on the particles of region"},
+      {"pressure", "{normal | center [, cavity], value | curve | blast} (below): a pressure p(t) on the particles "
+                   "of region"},
       {"set", "the set it applies to (default: every set)"},
       {NULL, NULL}};
   static const ej_describe_key probe[] = {
@@ -1149,14 +1272,25 @@ ej_err ej_scene_describe(ej_buf *b)
   EJ_TRY(ej_describe_section(b, "sets.<name>", NULL, ej_set_params, set));
   EJ_TRY(ej_describe_section(b, "sets.<name>.refine[]", NULL, ej_refine_params, region));
   EJ_TRY(ej_describe_section(b, "sets.<name>.initial[]", NULL, ej_init_params, init));
-  EJ_TRY(ej_describe_section(b, "boundaries[]", "one of fix, velocity, symmetry, periodic, non_reflecting:", NULL,
-                             bcs));
+  EJ_TRY(ej_describe_section(b, "boundaries[]", "one of fix, velocity, symmetry, periodic, non_reflecting, pressure:",
+                             NULL, bcs));
   EJ_TRY(ej_describe_section(b, "boundaries[].periodic", NULL, ej_periodic_params, NULL));
   static const ej_describe_key nonrefl[] = {
       {"normal", "outward normal of a plane boundary, e.g. [1, 0, 0] on the face x = max (one of normal, center)"},
       {"center", "centre of a spherical (2D: circular) boundary: normal (x - center)/|x - center| (m)"},
       {NULL, NULL}};
   EJ_TRY(ej_describe_section(b, "boundaries[].non_reflecting", NULL, ej_nonrefl_params, nonrefl));
+  static const ej_describe_key press[] = {
+      {"normal", "outward normal of a plane face, e.g. [0, 0, 1] on the top face (one of normal, center); the "
+                 "pressure pushes against it"},
+      {"center", "centre of a spherical (2D: circular) face: normal (x - center)/|x - center|, or its opposite with "
+                 "cavity (m)"},
+      {"curve", "[[t, p], ...]: p(t) linear between the points, the end values outside (s, Pa)"},
+      {"blast", "{charge, tnt, burst, time} (below): Kingery-Bulmash air blast (CONWEP) on the face"},
+      {NULL, NULL}};
+  EJ_TRY(ej_describe_section(b, "boundaries[].pressure", NULL, ej_pressure_params, press));
+  static const ej_describe_key blast[] = {{"charge", "centre of the charge (m; required)"}, {NULL, NULL}};
+  EJ_TRY(ej_describe_section(b, "boundaries[].pressure.blast", NULL, ej_blast_params, blast));
   EJ_TRY(ej_describe_section(b, "probes[]", "recorded every step into /series/probe/<name>/<column>:",
                              ej_probe_params, probe));
   return EJ_OK;
@@ -1430,7 +1564,7 @@ out_free:
 }
 
 static const char ej_schema_bc_head[] =
-    "\"boundary\":{\"description\":\"Boundary condition: fix, velocity, symmetry, periodic or non_reflecting.\",\"type\":\"object\","
+    "\"boundary\":{\"description\":\"Boundary condition: fix, velocity, symmetry, periodic, non_reflecting or pressure.\",\"type\":\"object\","
     "\"oneOf\":["
     "{\"additionalProperties\":false,\"required\":[\"fix\"],\"properties\":{\"set\":{\"type\":\"string\"},"
     "\"region\":{\"$ref\":\"#/$defs/shape\"},\"fix\":{\"$ref\":\"#/$defs/components\"}}},"
@@ -1490,7 +1624,21 @@ static ej_err ej_schema_compact(ej_registry *reg, ej_buf *b)
                           "\"properties\":{\"normal\":{\"$ref\":\"#/$defs/vector\",\"description\":\"Outward "
                           "normal of a plane boundary.\"},\"center\":{\"$ref\":\"#/$defs/vector\",\"description\":"
                           "\"Centre of a spherical (2D: circular) boundary (m).\"}}}]}"));
-  EJ_TRY(ej_buf_printf(b, "}}]},"));
+  EJ_TRY(ej_buf_printf(b, "}},{\"additionalProperties\":false,\"required\":[\"pressure\",\"region\"],"
+                          "\"properties\":{\"set\":{\"type\":\"string\"},\"region\":{\"$ref\":\"#/$defs/shape\"},"
+                          "\"pressure\":{\"allOf\":["));
+  EJ_TRY(ej_params_schema(b, ej_pressure_params, ej_pressure_manual));
+  EJ_TRY(ej_buf_printf(b, ",{\"oneOf\":[{\"required\":[\"normal\"]},{\"required\":[\"center\"]}]},"
+                          "{\"oneOf\":[{\"required\":[\"value\"]},{\"required\":[\"curve\"]},{\"required\":"
+                          "[\"blast\"]}],\"properties\":{\"normal\":{\"$ref\":\"#/$defs/vector\",\"description\":"
+                          "\"Outward normal of a plane face.\"},\"center\":{\"$ref\":\"#/$defs/vector\",\"description\":"
+                          "\"Centre of a spherical (2D: circular) face (m).\"},\"curve\":{\"type\":\"array\",\"minItems\":1,"
+                          "\"description\":\"p(t): [[t, p], ...], linear between the points (s, Pa).\",\"items\":{\"type\":"
+                          "\"array\",\"minItems\":2,\"maxItems\":2,\"items\":{\"$ref\":\"#/$defs/quantity\"}}},"
+                          "\"blast\":{\"allOf\":["));
+  EJ_TRY(ej_params_schema(b, ej_blast_params, ej_blast_manual));
+  EJ_TRY(ej_buf_printf(b, ",{\"required\":[\"charge\"],\"properties\":{\"charge\":{\"$ref\":\"#/$defs/vector\","
+                          "\"description\":\"Centre of the charge (m).\"}}}]}}}]}}}]},"));
   EJ_TRY(ej_buf_printf(b, "\"probe\":{\"allOf\":["));
   EJ_TRY(ej_params_schema(b, ej_probe_params, ej_probe_manual));
   EJ_TRY(ej_buf_printf(b, ",{\"required\":[\"set\",\"point\",\"fields\"],\"properties\":{"

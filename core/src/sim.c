@@ -474,7 +474,8 @@ static ej_err ej_set_initial(ej_sim *sim, ej_set *s, const ej_scene_set *ss, con
   /* Constrained particles are chosen once, in the initial configuration. */
   for (int b = 0; b < sim->scene->n_bcs; ++b) {
     const ej_scene_bc *bc = &sim->scene->bcs[b];
-    if ((bc->kind != EJ_BC_FIX && bc->kind != EJ_BC_VELOCITY && bc->kind != EJ_BC_NONREFLECT) ||
+    if ((bc->kind != EJ_BC_FIX && bc->kind != EJ_BC_VELOCITY && bc->kind != EJ_BC_NONREFLECT &&
+         bc->kind != EJ_BC_PRESSURE) ||
         !ej_bc_applies(bc, s->index))
       continue;
     for (ej_idx i = 0; i < s->n; ++i)
@@ -588,6 +589,60 @@ static ej_err ej_set_nonreflect(ej_sim *sim, ej_set *s)
   return EJ_OK;
 }
 
+/* Pressure loads on s: the bits, the face's initial positions (load_x0: the load is a function of the
+ * face as it was at t = 0) and the two fields that make the load's work exact, as for the dashpots:
+ * load_force (the load's force at the last evaluation) and load_power. */
+static ej_err ej_set_pressure(ej_sim *sim, ej_set *s)
+{
+  const ej_scene *sc = sim->scene;
+  for (int b = 0; b < sc->n_bcs; ++b)
+    if (sc->bcs[b].kind == EJ_BC_PRESSURE && ej_bc_applies(&sc->bcs[b], s->index)) s->pr_bits |= 1u << b;
+  if (!s->pr_bits) return EJ_OK;
+  static const ej_field_decl f[] = {
+      {.name = "load_force", .kind = EJ_VEC3, .flags = EJ_FIELD_NO_GHOST, .unit = "N",
+       .doc = "force of the pressure loads on the particle"},
+      {.name = "load_power", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "W",
+       .doc = "load_force . v at the end of the last step (the next step's work starts from it)"},
+      {.name = "load_x0", .kind = EJ_VEC3, .flags = EJ_FIELD_NO_GHOST, .unit = "m",
+       .doc = "position at t = 0, where the pressure loads are evaluated"}};
+  for (int k = 0; k < 3; ++k) EJ_TRY(ej_set_add_field(s, &f[k], NULL));
+  return EJ_OK;
+}
+
+/* The initial positions of a set with pressure loads (load_x0); a blast load's particles must lie
+ * where the Kingery-Bulmash curves are fitted, and a pressure region must hold particles. */
+static ej_err ej_set_pressure_init(const ej_sim *sim, ej_set *s)
+{
+  const ej_real *x = s->fields[s->f_x].data;
+  ej_real *x0 = ej_set_field(s, "load_x0");
+  if (x0) memcpy(x0, x, (size_t)s->n * 3 * sizeof *x0);
+  for (int b = 0; b < sim->scene->n_bcs; ++b) {
+    if (!(s->pr_bits & (1u << b))) continue;
+    const ej_scene_bc *bc = &sim->scene->bcs[b];
+    ej_idx n = 0;
+    for (ej_idx i = 0; i < s->n; ++i) {
+      if (!(s->bc_mask[i] & (1u << b))) continue;
+      ++n;
+      if (bc->source != EJ_PRESSURE_BLAST) continue;
+      const ej_real *xi = x + 3 * i, w3 = cbrt(bc->tnt);
+      const ej_real R = sqrt((xi[0] - bc->charge[0]) * (xi[0] - bc->charge[0]) +
+                             (xi[1] - bc->charge[1]) * (xi[1] - bc->charge[1]) +
+                             (xi[2] - bc->charge[2]) * (xi[2] - bc->charge[2]));
+      ej_real zmin, zmax;
+      ej_blast_range(bc->burst, &zmin, &zmax);
+      if (!(R / w3 >= zmin && R / w3 <= zmax))
+        return ej_error_input(&bc->loc,
+                              "pressure blast on set '%s': the particle at (%g, %g, %g) m is %g m from the charge, "
+                              "scaled distance Z = %g m/kg^(1/3); the Kingery-Bulmash curves hold for %g <= Z <= %g "
+                              "(%g to %g m for %g kg)",
+                              s->name, xi[0], xi[1], xi[2], R, R / w3, zmin, zmax, zmin * w3, zmax * w3, bc->tnt);
+    }
+    if (n == 0)
+      return ej_error_input(&bc->loc, "pressure on set '%s': its region holds no particle of the set", s->name);
+  }
+  return EJ_OK;
+}
+
 static ej_err ej_sets_create(ej_sim *sim)
 {
   const ej_scene *sc = sim->scene;
@@ -627,6 +682,7 @@ static ej_err ej_sets_create(ej_sim *sim)
         break;
       }
     EJ_TRY(ej_set_nonreflect(sim, s));
+    EJ_TRY(ej_set_pressure(sim, s));
     const ej_material *mat = s->model->mat;
     for (int k = 0; mat && k < mat->ops->n_hist; ++k) {
       /* A history variable named like a field the method or EOS declared (tlpd's "damage", the
@@ -660,6 +716,7 @@ static ej_err ej_sets_create(ej_sim *sim)
     if (rc == EJ_OK) rc = ej_set_initial(sim, s, ss, &pts);
     ej_points_free(&pts);
     EJ_TRY(rc);
+    EJ_TRY(ej_set_pressure_init(sim, s));
     if (s->n_hist > 0 && mat->ops->init_hist) {
       ej_real *hist[EJ_MAX_HIST];
       ej_set_hist(s, hist, EJ_MAX_HIST);
@@ -1157,6 +1214,66 @@ static void ej_nonreflect_kick(const ej_sim *sim, ej_set *s, ej_idx i, ej_real h
     if (!fixed[r]) v[r] = w[r];
 }
 
+/* p(t) of a curve: linear between its points, the end values outside. */
+static ej_real ej_curve_value(const ej_scene_bc *bc, ej_real t)
+{
+  const int n = bc->n_curve;
+  if (t <= bc->curve_t[0]) return bc->curve_p[0];
+  if (t >= bc->curve_t[n - 1]) return bc->curve_p[n - 1];
+  int lo = 0, hi = n - 1; /* curve_t[lo] < t < curve_t[hi] */
+  while (hi - lo > 1) {
+    const int mid = (lo + hi) / 2;
+    if (bc->curve_t[mid] <= t) lo = mid;
+    else hi = mid;
+  }
+  const ej_real w = (t - bc->curve_t[lo]) / (bc->curve_t[hi] - bc->curve_t[lo]);
+  return bc->curve_p[lo] + w * (bc->curve_p[hi] - bc->curve_p[lo]);
+}
+
+bool ej_pressure_normal(const ej_scene_bc *bc, const ej_real x[3], ej_real n[3])
+{
+  for (int k = 0; k < 3; ++k) n[k] = bc->normal[k];
+  if (!bc->radial) return true;
+  ej_real len = 0;
+  for (int k = 0; k < 3; ++k) n[k] = x[k] - bc->point[k], len += n[k] * n[k];
+  len = sqrt(len);
+  if (!(len > 0)) return false; /* a particle at the centre has no normal */
+  for (int k = 0; k < 3; ++k) n[k] *= (bc->cavity ? -1 : 1) / len;
+  return true;
+}
+
+ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_real vol0, ej_real t, ej_real F[3])
+{
+  ej_real n[3];
+  F[0] = F[1] = F[2] = 0;
+  if (!ej_pressure_normal(bc, x, n)) return 0;
+  ej_real p;
+  switch (bc->source) {
+  case EJ_PRESSURE_VALUE: p = bc->p_value; break;
+  case EJ_PRESSURE_CURVE: p = ej_curve_value(bc, t); break;
+  default: p = ej_blast_pressure(bc->burst, bc->tnt, bc->charge, bc->t_det, x, n, t); break;
+  }
+  const ej_real pa = p * ej_face_area(dim, vol0);
+  for (int k = 0; k < 3; ++k) F[k] = -pa * n[k];
+  return p;
+}
+
+/* The pressure loads' force on particle i at the current time (on the face as it was at t = 0) into f,
+ * F/m added to a. */
+static void ej_pressure_apply(const ej_sim *sim, const ej_set *s, ej_idx i, ej_real f[3], ej_real a[3])
+{
+  const ej_real *x = ej_set_field(s, "load_x0"), *vol0 = s->fields[s->f_vol0].data, *m = s->fields[s->f_m].data;
+  f[0] = f[1] = f[2] = 0;
+  uint32_t mask = s->bc_mask[i] & s->pr_bits;
+  for (int b = 0; mask; ++b, mask >>= 1)
+    if (mask & 1u) {
+      ej_real F[3];
+      ej_pressure_load(&sim->scene->bcs[b], sim->scene->dimension, x + 3 * i, vol0[i], sim->t, F);
+      for (int k = 0; k < 3; ++k) f[k] += F[k];
+    }
+  for (int k = 0; k < 3; ++k) a[k] += f[k] / m[i];
+}
+
 /* Gravity, the non-reflecting dashpots, then constraints: fixed and prescribed-velocity components
  * get zero acceleration. ctx: a bool, true inside a step (NULL: the force evaluation at t = 0). */
 static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_range r)
@@ -1168,6 +1285,7 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   ej_real *pw = ej_set_field(s, "bc_power"), *pw_old = ej_set_field(s, "bc_power_old");
   ej_real *nrf = ej_set_field(s, "nr_force"), *nrp = ej_set_field(s, "nr_power");
   const ej_real *vh = nrf && in_step ? ej_set_field(s, "v_half") : NULL;
+  ej_real *plf = ej_set_field(s, "load_force"), *plp = ej_set_field(s, "load_power");
   for (ej_idx i = r.begin; i < r.end; ++i) {
     a[3 * i] += g[0], a[3 * i + 1] += g[1], a[3 * i + 2] += g[2];
     if (nrf && (s->bc_mask[i] & s->nr_bits)) {
@@ -1186,6 +1304,18 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
         ej_nonreflect_apply(K, fixed, v + 3 * i, m[i], fi, a + 3 * i);
         nrp[i] = fi[0] * v[3 * i] + fi[1] * v[3 * i + 1] + fi[2] * v[3 * i + 2];
       }
+    }
+    if (plf && (s->bc_mask[i] & s->pr_bits)) {
+      /* The load's work as the dashpots' (above): the first half kick's from F_n, the second's in
+       * ej_work_chunk; components held by a constraint count too, their constraint power (below)
+       * takes the load back. */
+      ej_real *fi = plf + 3 * i;
+      if (in_step) {
+        const ej_real *vh2 = ej_set_field(s, "v_half");
+        plp[i] = 0.25 * sim->dt * (plp[i] + fi[0] * vh2[3 * i] + fi[1] * vh2[3 * i + 1] + fi[2] * vh2[3 * i + 2]);
+      }
+      ej_pressure_apply(sim, s, i, fi, a + 3 * i);
+      if (!in_step) plp[i] = fi[0] * v[3 * i] + fi[1] * v[3 * i + 1] + fi[2] * v[3 * i + 2];
     }
     ej_real power = 0;
     uint32_t mask = s->bc_mask[i];
@@ -1567,6 +1697,16 @@ static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
       if (!(s->bc_mask[i] & s->nr_bits)) continue;
       wnr += nrp[i] + 0.25 * sim->dt * (fi[0] * (hi[0] + vi[0]) + fi[1] * (hi[1] + vi[1]) + fi[2] * (hi[2] + vi[2]));
       nrp[i] = fi[0] * vi[0] + fi[1] * vi[1] + fi[2] * vi[2];
+    }
+  }
+  ej_real *plp = ej_set_field(s, "load_power");
+  if (plp) { /* the pressure loads, as the dashpots */
+    const ej_real *f = ej_set_field(s, "load_force"), *v = s->fields[s->f_v].data;
+    for (ej_idx i = r.begin; i < r.end; ++i) {
+      const ej_real *fi = f + 3 * i, *vi = v + 3 * i, *hi = vh + 3 * i;
+      if (!(s->bc_mask[i] & s->pr_bits)) continue;
+      wnr += plp[i] + 0.25 * sim->dt * (fi[0] * (hi[0] + vi[0]) + fi[1] * (hi[1] + vi[1]) + fi[2] * (hi[2] + vi[2]));
+      plp[i] = fi[0] * vi[0] + fi[1] * vi[1] + fi[2] * vi[2];
     }
   }
   for (ej_idx i = r.begin; i < r.end; ++i) {

@@ -151,7 +151,9 @@ START_TEST(test_check_and_run)
                               "probes:\n  - {name: g, set: tube, point: [0.5], fields: [p]}\n"
                               "  - {name: t, set: tube, point: [0.2], follow: true, fields: [v]}\n"
                               "boundaries:\n  - {region: {box: {min: [0.99], max: [2]}}, non_reflecting: {normal: [1], "
-                              "cp: 1.18}}\n");
+                              "cp: 1.18}}\n"
+                              "  - {region: {box: {min: [-1], max: [0.01]}}, pressure: {normal: [-1], blast: {charge: "
+                              "[-1], tnt: 1 kg, time: 10 s}}}\n");
   snprintf(args, sizeof args, "check %s", scene);
   ck_assert_int_eq(run(args, err, sizeof err), 0);
   {
@@ -165,7 +167,9 @@ START_TEST(test_check_and_run)
     ck_assert_msg(strstr(buf, "probe 'g': gauge in set 'tube' at (0.5, 0, 0) m, nearest particle 0.005 m away, 2 "
                               "columns") &&
                       strstr(buf, "probe 't': tracer of particle id 19 of set 'tube', at (0.195, 0, 0) m") &&
-                      strstr(buf, "on set 'tube': 1 particles, boundary 1 (1D), rho c_p 1.18, rho c_s 0 kg/(m^2 s)"),
+                      strstr(buf, "on set 'tube': 1 particles, boundary 1 (1D), rho c_p 1.18, rho c_s 0 kg/(m^2 s)") &&
+                      strstr(buf, "pressure (line 14) on set 'tube': 1 particles, face 1 (1D); 1 kg TNT air burst: Z "
+                                  "1.005-1.005 m/kg^(1/3), arrival 0.0005368-0.0005368 s after detonation"),
                   "%s", buf);
   }
   char out[600];

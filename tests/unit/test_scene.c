@@ -401,7 +401,7 @@ START_TEST(test_bad_non_reflecting)
   load_bad(HEAD SET_OK "boundaries:\n  - {set: gas, non_reflecting: {normal: [1, 0, 0]}}\n", "non_reflecting needs 'region'",
            8, 16);
   load_bad(HEAD SET_OK "boundaries:\n  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, non_reflecting: {cp: 1}}\n",
-           "needs one of 'normal' (a plane boundary, outward) and 'center'", 8, 71);
+           "needs one of 'normal' (a plane face, outward) and 'center'", 8, 71);
   load_bad(HEAD SET_OK "boundaries:\n  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, non_reflecting: {normal: [1, 0, "
                        "0], center: [0, 0, 0]}}\n",
            "not both", 8, 99);
@@ -417,6 +417,48 @@ START_TEST(test_bad_non_reflecting)
   load_bad(HEAD SET_OK "boundaries:\n  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, non_reflecting: {normal: [1, 0, "
                        "0]}, components: [x]}\n",
            "unknown key 'components'", 8, 92);
+}
+END_TEST
+
+START_TEST(test_pressure_parse)
+{
+  ej_scene *sc = load_ok(HEAD SET_OK "boundaries:\n"
+                                     "  - {region: {box: {min: [0.9, 0, 0], max: [1, 1, 1]}}, pressure: {normal: [2, 0, 0], "
+                                     "value: 3 MPa}}\n"
+                                     "  - {set: gas, region: {sphere: {center: [0, 0, 0], radius: 0.3}}, pressure: {center: "
+                                     "[0, 0, 0], cavity: true, curve: [[0, 0], [1 ms, 2 MPa], [2 ms, 0]]}}\n"
+                                     "  - {region: {box: {min: [0, 0, 0.9], max: [1, 1, 1]}}, pressure: {normal: [0, 0, 1], "
+                                     "blast: {charge: [0.5, 0.5, 2 m], tnt: 500 g, burst: surface, time: 10 us}}}\n");
+  ck_assert_int_eq(sc->n_bcs, 3);
+  const ej_scene_bc *b = sc->bcs;
+  ck_assert(b[0].kind == EJ_BC_PRESSURE && b[0].source == EJ_PRESSURE_VALUE && b[0].p_value == 3e6);
+  ck_assert(b[0].normal[0] == 1 && !b[0].radial && b[0].set == -1);
+  ck_assert(b[1].source == EJ_PRESSURE_CURVE && b[1].radial && b[1].cavity && b[1].n_curve == 3);
+  ck_assert(b[1].curve_t[1] == 1e-3 && b[1].curve_p[1] == 2e6 && b[1].curve_t[2] == 2e-3);
+  ck_assert(b[2].source == EJ_PRESSURE_BLAST && b[2].burst == EJ_BURST_SURFACE && b[2].tnt == 0.5);
+  ck_assert(b[2].charge[2] == 2 && fabs(b[2].t_det - 1e-5) < 1e-20);
+  ej_scene_destroy(sc);
+}
+END_TEST
+
+START_TEST(test_bad_pressure)
+{
+#define PB HEAD SET_OK "boundaries:\n  - {region: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, pressure: "
+  load_bad(HEAD SET_OK "boundaries:\n  - {set: gas, pressure: {normal: [1, 0, 0], value: 1}}\n", "pressure needs 'region'",
+           8, 16);
+  load_bad(PB "{normal: [1, 0, 0]}}\n", "pressure needs one of 'value'", 8, 65);
+  load_bad(PB "{value: 1 MPa}}\n", "pressure needs one of 'normal' (a plane face, outward) and 'center'", 8, 65);
+  load_bad(PB "{normal: [1, 0, 0], value: 1, curve: [[0, 1]]}}\n", "found both 'value' and 'curve'", 8, 95);
+  load_bad(PB "{normal: [1, 0, 0], curve: [[0, 1], [0, 2]]}}\n", "curve point 2: time 0 s must be after", 8, 102);
+  load_bad(PB "{normal: [1, 0, 0], curve: [[0, 1], [1 ms]]}}\n", "curve point 2: expected [time, pressure]", 8, 101);
+  load_bad(PB "{normal: [1, 0, 0], curve: []}}\n", "curve: expected a list of [time, pressure] points", 8, 92);
+  load_bad(PB "{normal: [1, 0, 0], curve: [[0, 1 m]]}}\n", "expects a pressure (Pa), got '1 m'", 8, 97);
+  load_bad(PB "{normal: [1, 0, 0], blast: {tnt: 1}}}\n", "blast needs 'charge'", 8, 92);
+  load_bad(PB "{normal: [1, 0, 0], blast: {charge: [0, 0, 2], tnt: 0}}}\n", "'tnt' = 0 is out of range", 8, 117);
+  load_bad(PB "{normal: [1, 0, 0], blast: {charge: [0, 0, 2], tnt: 1, burst: ground}}}\n", "'burst' in blast must be one of air, surface", 8, 127);
+  load_bad(PB "{normal: [1, 0, 0], cavity: true, value: 1}}\n", "cavity is for a face around 'center'", 8, 93);
+  load_bad(PB "{normal: [1, 0, 0], valeu: 1}}\n", "unknown key 'valeu'", 8, 85);
+#undef PB
 }
 END_TEST
 
@@ -506,6 +548,8 @@ int main(void)
   tcase_add_test(tc, test_bad_misc);
   tcase_add_test(tc, test_bad_probes);
   tcase_add_test(tc, test_bad_non_reflecting);
+  tcase_add_test(tc, test_pressure_parse);
+  tcase_add_test(tc, test_bad_pressure);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
