@@ -1710,12 +1710,9 @@ static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
     }
   }
   for (ej_idx i = r.begin; i < r.end; ++i) {
-    ej_real gv = 0;
-    bool fixed[3];
-    ej_bc_fixed(sim, s, i, fixed);
-    for (int k = 0; k < 3; ++k)
-      if (!fixed[k]) gv += g[k] * vh[3 * i + k];
-    w += m[i] * gv;
+    /* every component: a held one moves at its prescribed velocity (0 for a fix), and the
+     * constraint's power (bc_power) takes gravity back there */
+    w += m[i] * (g[0] * vh[3 * i] + g[1] * vh[3 * i + 1] + g[2] * vh[3 * i + 2]);
   }
   sim->chunk_scratch[c * EJ_NSLOT + EJ_S_WORK] = (w + wbc) * sim->dt + wnr;
   return EJ_OK;
