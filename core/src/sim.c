@@ -1214,6 +1214,32 @@ static void ej_nonreflect_kick(const ej_sim *sim, ej_set *s, ej_idx i, ej_real h
     if (!fixed[r]) v[r] = w[r];
 }
 
+/* The work of a force kept per particle (F in f, on the particles of the boundaries in bits: the
+ * dashpots, the pressure loads), exact for the kinetic energy of velocity Verlet's two half kicks.
+ * ej_split_work_start, when F_n+1 replaces F_n in the force evaluation: pw, which held F_n . v_n,
+ * becomes the first half kick's dt/2 F_n . (v_n + v_half) / 2. ej_split_work_end, after the second
+ * half kick: its dt/2 F_n+1 . (v_half + v_n+1) / 2 added to pw is the step's work, summed over r;
+ * pw = F_n+1 . v_n+1 for the next step. */
+static inline void ej_split_work_start(ej_real dt, const ej_real f[3], const ej_real vh[3], ej_real *pw)
+{
+  *pw = 0.25 * dt * (*pw + f[0] * vh[0] + f[1] * vh[1] + f[2] * vh[2]);
+}
+
+static ej_real ej_split_work_end(const ej_sim *sim, const ej_set *s, ej_range r, uint32_t bits, const ej_real *f,
+                                 ej_real *pw)
+{
+  if (!pw) return 0;
+  const ej_real *vh = ej_set_field(s, "v_half"), *v = s->fields[s->f_v].data;
+  ej_real w = 0;
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    const ej_real *fi = f + 3 * i, *vi = v + 3 * i, *hi = vh + 3 * i;
+    if (!(s->bc_mask[i] & bits)) continue;
+    w += pw[i] + 0.25 * sim->dt * (fi[0] * (hi[0] + vi[0]) + fi[1] * (hi[1] + vi[1]) + fi[2] * (hi[2] + vi[2]));
+    pw[i] = fi[0] * vi[0] + fi[1] * vi[1] + fi[2] * vi[2];
+  }
+  return w;
+}
+
 /* p(t) of a curve: linear between its points, the end values outside. */
 static ej_real ej_curve_value(const ej_scene_bc *bc, ej_real t)
 {
@@ -1284,7 +1310,7 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   const ej_real *g = sim->scene->gravity, *m = s->fields[s->f_m].data, *v = s->fields[s->f_v].data;
   ej_real *pw = ej_set_field(s, "bc_power"), *pw_old = ej_set_field(s, "bc_power_old");
   ej_real *nrf = ej_set_field(s, "nr_force"), *nrp = ej_set_field(s, "nr_power");
-  const ej_real *vh = nrf && in_step ? ej_set_field(s, "v_half") : NULL;
+  const ej_real *vh = in_step ? ej_set_field(s, "v_half") : NULL;
   ej_real *plf = ej_set_field(s, "load_force"), *plp = ej_set_field(s, "load_power");
   for (ej_idx i = r.begin; i < r.end; ++i) {
     a[3 * i] += g[0], a[3 * i + 1] += g[1], a[3 * i + 2] += g[2];
@@ -1295,7 +1321,7 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
        * half kick (ej_nonreflect_kick); at t = 0 it is explicit, at the initial velocity. */
       ej_real *fi = nrf + 3 * i;
       if (in_step) {
-        nrp[i] = 0.25 * sim->dt * (nrp[i] + fi[0] * vh[3 * i] + fi[1] * vh[3 * i + 1] + fi[2] * vh[3 * i + 2]);
+        ej_split_work_start(sim->dt, fi, vh + 3 * i, nrp + i);
       } else {
         ej_real K[9];
         bool fixed[3];
@@ -1310,10 +1336,7 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
        * ej_work_chunk; components held by a constraint count too, their constraint power (below)
        * takes the load back. */
       ej_real *fi = plf + 3 * i;
-      if (in_step) {
-        const ej_real *vh2 = ej_set_field(s, "v_half");
-        plp[i] = 0.25 * sim->dt * (plp[i] + fi[0] * vh2[3 * i] + fi[1] * vh2[3 * i + 1] + fi[2] * vh2[3 * i + 2]);
-      }
+      if (in_step) ej_split_work_start(sim->dt, fi, vh + 3 * i, plp + i);
       ej_pressure_apply(sim, s, i, fi, a + 3 * i);
       if (!in_step) plp[i] = fi[0] * v[3 * i] + fi[1] * v[3 * i + 1] + fi[2] * v[3 * i + 2];
     }
@@ -1687,28 +1710,9 @@ static ej_err ej_work_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   ej_real w = 0, wbc = 0, wnr = 0;
   if (pw)
     for (ej_idx i = r.begin; i < r.end; ++i) wbc += 0.5 * (pw_old[i] + pw[i]);
-  ej_real *nrp = ej_set_field(s, "nr_power");
-  if (nrp) {
-    /* the dashpots: the first half kick's work (nr_power, ej_body_chunk) and the second's,
-     * dt/2 F_n+1 . (v_half + v_n+1) / 2; then nr_power = F_n+1 . v_n+1 for the next step */
-    const ej_real *f = ej_set_field(s, "nr_force"), *v = s->fields[s->f_v].data;
-    for (ej_idx i = r.begin; i < r.end; ++i) {
-      const ej_real *fi = f + 3 * i, *vi = v + 3 * i, *hi = vh + 3 * i;
-      if (!(s->bc_mask[i] & s->nr_bits)) continue;
-      wnr += nrp[i] + 0.25 * sim->dt * (fi[0] * (hi[0] + vi[0]) + fi[1] * (hi[1] + vi[1]) + fi[2] * (hi[2] + vi[2]));
-      nrp[i] = fi[0] * vi[0] + fi[1] * vi[1] + fi[2] * vi[2];
-    }
-  }
-  ej_real *plp = ej_set_field(s, "load_power");
-  if (plp) { /* the pressure loads, as the dashpots */
-    const ej_real *f = ej_set_field(s, "load_force"), *v = s->fields[s->f_v].data;
-    for (ej_idx i = r.begin; i < r.end; ++i) {
-      const ej_real *fi = f + 3 * i, *vi = v + 3 * i, *hi = vh + 3 * i;
-      if (!(s->bc_mask[i] & s->pr_bits)) continue;
-      wnr += plp[i] + 0.25 * sim->dt * (fi[0] * (hi[0] + vi[0]) + fi[1] * (hi[1] + vi[1]) + fi[2] * (hi[2] + vi[2]));
-      plp[i] = fi[0] * vi[0] + fi[1] * vi[1] + fi[2] * vi[2];
-    }
-  }
+  /* the dashpots and the pressure loads: the first half kick's work (ej_body_chunk) and the second's */
+  wnr += ej_split_work_end(sim, s, r, s->nr_bits, ej_set_field(s, "nr_force"), ej_set_field(s, "nr_power"));
+  wnr += ej_split_work_end(sim, s, r, s->pr_bits, ej_set_field(s, "load_force"), ej_set_field(s, "load_power"));
   for (ej_idx i = r.begin; i < r.end; ++i) {
     /* every component: a held one moves at its prescribed velocity (0 for a fix), and the
      * constraint's power (bc_power) takes gravity back there */

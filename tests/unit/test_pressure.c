@@ -254,14 +254,8 @@ END_TEST
 
 static void same_state(const ej_sim *a, const ej_sim *b, const char *what)
 {
-  const ej_set *sa = a->sets[0], *sb = b->sets[0];
   static const char *const f[] = {"x", "v", "load_force", "load_power"};
-  for (int k = 0; k < 4; ++k) {
-    const size_t nb = (size_t)ej_set_count(sa) * (k < 3 ? 3 : 1) * sizeof(ej_real);
-    ck_assert_msg(!memcmp(ej_set_field(sa, f[k]), ej_set_field(sb, f[k]), nb), "%s differs%s", f[k], what);
-  }
-  ck_assert_msg(!memcmp(&a->energy.external, &b->energy.external, sizeof(ej_real)), "external %.17g vs %.17g%s",
-                a->energy.external, b->energy.external, what);
+  vrun_same_state(a, b, f, 4, what);
 }
 
 START_TEST(test_threads_and_restart)

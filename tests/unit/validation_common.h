@@ -103,6 +103,24 @@ static inline void vrun_check_refuses(const char *path, const char *msg, int lin
   ej_registry_destroy(reg);
 }
 
+/* Two runs of one scene ended in the same state, bitwise: the named fields of set 0 (every
+ * component) and the external work of the budget; what names the comparison in the messages. */
+static inline void vrun_same_state(const ej_sim *a, const ej_sim *b, const char *const *fields, int n,
+                                   const char *what)
+{
+  const ej_set *sa = a->sets[0], *sb = b->sets[0];
+  ck_assert_int_eq(ej_set_count(sa), ej_set_count(sb));
+  for (int k = 0; k < n; ++k) {
+    const int f = ej_set_find_field(sa, fields[k]);
+    ck_assert_msg(f >= 0, "no field %s", fields[k]);
+    const size_t nb = (size_t)ej_set_count(sa) * (size_t)sa->fields[f].ncomp * sizeof(ej_real);
+    ck_assert_msg(!memcmp(ej_set_field(sa, fields[k]), ej_set_field(sb, fields[k]), nb), "%s differs%s", fields[k],
+                  what);
+  }
+  ck_assert_msg(!memcmp(&a->energy.external, &b->energy.external, sizeof(ej_real)), "external %.17g vs %.17g%s",
+                a->energy.external, b->energy.external, what);
+}
+
 /* A scene given as text, in a fresh temporary directory: dir/s.yaml, output dir/out.h5. */
 typedef struct vscene {
   char dir[64], scene[128], out[128];
