@@ -165,25 +165,38 @@ ej_real ej_blast_friedlander(ej_real P, ej_real a, ej_real t_d, ej_real tau)
   return P * (1.0 - s) * exp(-a * s);
 }
 
+void ej_blast_point(int burst, ej_real w_tnt, const ej_real charge[3], ej_real t_det, const ej_real x[3],
+                    const ej_real n[3], ej_blast_pt *o)
+{
+  const ej_real d[3] = {charge[0] - x[0], charge[1] - x[1], charge[2] - x[2]};
+  const ej_real R = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), w3 = cbrt(w_tnt);
+  *o = (ej_blast_pt){.t0 = INFINITY};
+  if (!(R > 0) || !(w_tnt > 0)) return;
+  ej_blast_kb kb;
+  ej_blast_curves(burst, R / w3, &kb);
+  const ej_real c = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) / R; /* cos of the incidence angle */
+  const ej_real fr = c < 0 ? 0.0 : c * c, fi = c < 0 ? 1.0 : 1.0 + c * c - 2.0 * c;
+  o->t0 = t_det + kb.t_a * w3;
+  o->td_r = o->td_i = kb.t_d * w3;
+  o->a_r = ej_blast_decay(kb.p_r, kb.i_r * w3, &o->td_r);
+  o->a_i = ej_blast_decay(kb.p_i, kb.i_i * w3, &o->td_i);
+  o->p_r = fr * kb.p_r;
+  o->p_i = fi * kb.p_i;
+}
+
+ej_real ej_blast_eval(const ej_blast_pt *b, ej_real t)
+{
+  const ej_real tau = t - b->t0;
+  if (!(tau >= 0)) return 0.0;
+  return ej_blast_friedlander(b->p_r, b->a_r, b->td_r, tau) + ej_blast_friedlander(b->p_i, b->a_i, b->td_i, tau);
+}
+
 ej_real ej_blast_pressure(int burst, ej_real w_tnt, const ej_real charge[3], ej_real t_det, const ej_real x[3],
                          const ej_real n[3], ej_real t)
 {
-  const ej_real d[3] = {charge[0] - x[0], charge[1] - x[1], charge[2] - x[2]};
-  const ej_real R = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-  if (!(R > 0) || !(w_tnt > 0)) return 0.0;
-  const ej_real w3 = cbrt(w_tnt);
-  ej_blast_kb kb;
-  ej_blast_curves(burst, R / w3, &kb);
-  const ej_real tau = t - t_det - kb.t_a * w3;
-  if (!(tau >= 0)) return 0.0;
-  ej_real td_i = kb.t_d * w3, td_r = kb.t_d * w3;
-  const ej_real a_i = ej_blast_decay(kb.p_i, kb.i_i * w3, &td_i);
-  const ej_real a_r = ej_blast_decay(kb.p_r, kb.i_r * w3, &td_r);
-  const ej_real pi = ej_blast_friedlander(kb.p_i, a_i, td_i, tau);
-  const ej_real c = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) / R; /* cos of the incidence angle */
-  if (c < 0) return pi;
-  const ej_real pr = ej_blast_friedlander(kb.p_r, a_r, td_r, tau);
-  return pr * c * c + pi * (1.0 + c * c - 2.0 * c);
+  ej_blast_pt b;
+  ej_blast_point(burst, w_tnt, charge, t_det, x, n, &b);
+  return ej_blast_eval(&b, t);
 }
 
 void ej_blast_peak(int burst, ej_real w_tnt, const ej_real charge[3], const ej_real x[3], const ej_real n[3],

@@ -524,8 +524,17 @@ void ej_blast_curves(int burst, ej_real z, ej_blast_kb *out);
  * triangle) cannot carry I, *t_d becomes 2 I / P and a = 0. */
 ej_real ej_blast_decay(ej_real P, ej_real I, ej_real *t_d);
 ej_real ej_blast_friedlander(ej_real P, ej_real a, ej_real t_d, ej_real tau);
+/* The blast at one face point, for any time: the arrival t0 (s), and the reflected and incident
+ * Friedlander pulses already weighted by the angle rule (peaks p_r, p_i, decays, durations). Seven
+ * numbers: a loaded particle keeps them (field load_blast), its face does not move. */
+typedef struct ej_blast_pt {
+  ej_real t0, p_r, a_r, td_r, p_i, a_i, td_i;
+} ej_blast_pt;
+void ej_blast_point(int burst, ej_real w_tnt, const ej_real charge[3], ej_real t_det, const ej_real x[3],
+                    const ej_real n[3], ej_blast_pt *o);
+ej_real ej_blast_eval(const ej_blast_pt *b, ej_real t);
 /* Overpressure at time t on a face at x with outward unit normal n, from w_tnt kg of TNT at charge
- * detonated at t_det (Randers-Pehrson & Bannister's angle rule). */
+ * detonated at t_det (Randers-Pehrson & Bannister's angle rule): ej_blast_eval of ej_blast_point. */
 ej_real ej_blast_pressure(int burst, ej_real w_tnt, const ej_real charge[3], ej_real t_det, const ej_real x[3],
                          const ej_real n[3], ej_real t);
 
@@ -538,10 +547,12 @@ void ej_blast_peak(int burst, ej_real w_tnt, const ej_real charge[3], const ej_r
                    ej_blast_face *out);
 
 /* The force F of pressure load bc on a particle at x with volume vol0 at time t (sim.c): -p A n on
- * its share A = ej_face_area of the face, n the face's outward normal there; returns p. */
+ * its share A = ej_face_area of the face, n the face's outward normal there; returns p. blast: the
+ * particle's kept blast point for a blast load (NULL: computed here). */
 /* The outward unit normal of pressure load bc's face at x; false at a radial face's centre. */
 bool ej_pressure_normal(const ej_scene_bc *bc, const ej_real x[3], ej_real n[3]);
-ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_real vol0, ej_real t, ej_real F[3]);
+ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_real vol0, ej_real t,
+                         const ej_blast_pt *blast, ej_real F[3]);
 
 /* The owned particle of s nearest to p (the smaller id on a tie) and its squared distance (dim
  * components); -1 for an empty set. */

@@ -604,8 +604,14 @@ static ej_err ej_set_pressure(ej_sim *sim, ej_set *s)
       {.name = "load_power", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "W",
        .doc = "load_force . v at the end of the last step (the next step's work starts from it)"},
       {.name = "load_x0", .kind = EJ_VEC3, .flags = EJ_FIELD_NO_GHOST, .unit = "m",
-       .doc = "position at t = 0, where the pressure loads are evaluated"}};
-  for (int k = 0; k < 3; ++k) EJ_TRY(ej_set_add_field(s, &f[k], NULL));
+       .doc = "position at t = 0, where the pressure loads are evaluated"},
+      {.name = "load_blast", .kind = EJ_TENSOR9, .flags = EJ_FIELD_NO_GHOST, .unit = "1",
+       .doc = "the particle's first blast load on its face at t = 0 (ej_blast_pt: arrival, weighted peaks, decays, "
+              "durations), kept so that a step evaluates two exponentials instead of the curves"}};
+  bool blast = false;
+  for (int b = 0; b < sc->n_bcs; ++b) blast |= (s->pr_bits & (1u << b)) && sc->bcs[b].source == EJ_PRESSURE_BLAST;
+  _Static_assert(sizeof(ej_blast_pt) <= EJ_TENSOR9 * sizeof(ej_real), "ej_blast_pt fits a tensor9 field");
+  for (int k = 0; k < (blast ? 4 : 3); ++k) EJ_TRY(ej_set_add_field(s, &f[k], NULL));
   return EJ_OK;
 }
 
@@ -614,8 +620,20 @@ static ej_err ej_set_pressure(ej_sim *sim, ej_set *s)
 static ej_err ej_set_pressure_init(const ej_sim *sim, ej_set *s)
 {
   const ej_real *x = s->fields[s->f_x].data;
-  ej_real *x0 = ej_set_field(s, "load_x0");
+  ej_real *x0 = ej_set_field(s, "load_x0"), *kept = ej_set_field(s, "load_blast");
   if (x0) memcpy(x0, x, (size_t)s->n * 3 * sizeof *x0);
+  for (ej_idx i = 0; kept && i < s->n; ++i) { /* the particle's first blast load, as ej_pressure_apply takes it */
+    uint32_t mask = s->bc_mask[i] & s->pr_bits;
+    for (int b = 0; mask; ++b, mask >>= 1) {
+      const ej_scene_bc *bc = &sim->scene->bcs[b];
+      ej_real n[3];
+      if (!(mask & 1u) || bc->source != EJ_PRESSURE_BLAST) continue;
+      ej_blast_pt bp = {.t0 = INFINITY}; /* a particle at a radial face's centre: no load */
+      if (ej_pressure_normal(bc, x + 3 * i, n)) ej_blast_point(bc->burst, bc->tnt, bc->charge, bc->t_det, x + 3 * i, n, &bp);
+      memcpy(kept + EJ_TENSOR9 * i, &bp, sizeof bp);
+      break;
+    }
+  }
   for (int b = 0; b < sim->scene->n_bcs; ++b) {
     if (!(s->pr_bits & (1u << b))) continue;
     const ej_scene_bc *bc = &sim->scene->bcs[b];
@@ -1268,7 +1286,8 @@ bool ej_pressure_normal(const ej_scene_bc *bc, const ej_real x[3], ej_real n[3])
   return true;
 }
 
-ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_real vol0, ej_real t, ej_real F[3])
+ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_real vol0, ej_real t,
+                         const ej_blast_pt *blast, ej_real F[3])
 {
   ej_real n[3];
   F[0] = F[1] = F[2] = 0;
@@ -1277,7 +1296,9 @@ ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_
   switch (bc->source) {
   case EJ_PRESSURE_VALUE: p = bc->p_value; break;
   case EJ_PRESSURE_CURVE: p = ej_curve_value(bc, t); break;
-  default: p = ej_blast_pressure(bc->burst, bc->tnt, bc->charge, bc->t_det, x, n, t); break;
+  default:
+    p = blast ? ej_blast_eval(blast, t) : ej_blast_pressure(bc->burst, bc->tnt, bc->charge, bc->t_det, x, n, t);
+    break;
   }
   const ej_real pa = p * ej_face_area(dim, vol0);
   for (int k = 0; k < 3; ++k) F[k] = -pa * n[k];
@@ -1289,12 +1310,18 @@ ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_
 static void ej_pressure_apply(const ej_sim *sim, const ej_set *s, ej_idx i, ej_real f[3], ej_real a[3])
 {
   const ej_real *x = ej_set_field(s, "load_x0"), *vol0 = s->fields[s->f_vol0].data, *m = s->fields[s->f_m].data;
+  const ej_real *kept = ej_set_field(s, "load_blast"); /* the particle's first blast load, computed once */
   f[0] = f[1] = f[2] = 0;
   uint32_t mask = s->bc_mask[i] & s->pr_bits;
   for (int b = 0; mask; ++b, mask >>= 1)
     if (mask & 1u) {
+      const ej_scene_bc *bc = &sim->scene->bcs[b];
+      ej_blast_pt bp;
+      const bool use = bc->source == EJ_PRESSURE_BLAST && kept;
+      if (use) memcpy(&bp, kept + EJ_TENSOR9 * i, sizeof bp);
+      if (use) kept = NULL;
       ej_real F[3];
-      ej_pressure_load(&sim->scene->bcs[b], sim->scene->dimension, x + 3 * i, vol0[i], sim->t, F);
+      ej_pressure_load(bc, sim->scene->dimension, x + 3 * i, vol0[i], sim->t, use ? &bp : NULL, F);
       for (int k = 0; k < 3; ++k) f[k] += F[k];
     }
   for (int k = 0; k < 3; ++k) a[k] += f[k] / m[i];

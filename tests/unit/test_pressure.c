@@ -289,14 +289,14 @@ START_TEST(test_radial_faces)
                     .p_value = 1e6};
   const ej_real x[3] = {1, 2 + 0.6, 3 + 0.8};
   ej_real F[3];
-  ck_assert(ej_pressure_load(&bc, 3, x, 1e-3, 0, F) == 1e6);
+  ck_assert(ej_pressure_load(&bc, 3, x, 1e-3, 0, NULL, F) == 1e6);
   ck_assert(fabs(F[0]) < 1e-9 && fabs(F[1] + 0.6e4) < 1e-9 && fabs(F[2] + 0.8e4) < 1e-9); /* A = 1e-2 */
   bc.cavity = true;
-  ej_pressure_load(&bc, 3, x, 1e-3, 0, F);
+  ej_pressure_load(&bc, 3, x, 1e-3, 0, NULL, F);
   ck_assert(fabs(F[1] - 0.6e4) < 1e-9 && fabs(F[2] - 0.8e4) < 1e-9);
-  ej_pressure_load(&bc, 2, x, 1e-4, 0, F); /* 2D: A = sqrt(area) per m of thickness */
+  ej_pressure_load(&bc, 2, x, 1e-4, 0, NULL, F); /* 2D: A = sqrt(area) per m of thickness */
   ck_assert(fabs(F[1] - 0.6e4) < 1e-9);
-  ck_assert(ej_pressure_load(&bc, 3, bc.point, 1e-3, 0, F) == 0 && F[0] == 0); /* at the centre: no normal */
+  ck_assert(ej_pressure_load(&bc, 3, bc.point, 1e-3, 0, NULL, F) == 0 && F[0] == 0); /* at the centre: no normal */
 }
 END_TEST
 
