@@ -183,6 +183,33 @@ START_TEST(test_check_and_run)
 }
 END_TEST
 
+/* A pressure region two particle layers thick: check warns (the load would act on both). */
+START_TEST(test_check_thick_face)
+{
+  make_tmpdir();
+  char scene[512], args[600], err[8192];
+  snprintf(scene, sizeof scene, "%s/thick.yaml", tmpdir);
+  write_file(scene, "ejecta: 1\ndimension: 2\ntime: {end: 0.01 s}\n"
+                    "materials:\n  gas: {rho0: 1.0, eos: {model: ideal_gas, gamma: 1.4}}\n"
+                    "sets:\n  box: {method: sph, material: gas, shape: {box: {min: [0, 0], max: [1, 1]}}, spacing: 0.1, "
+                    "p: 1}\n"
+                    "boundaries:\n  - {region: {box: {min: [0, 0.8], max: [1, 1]}}, pressure: {normal: [0, 1], value: 1}}\n"
+                    "  - {region: {box: {min: [0, 0], max: [1, 0.1]}}, pressure: {normal: [0, -1], value: 1}}\n");
+  snprintf(args, sizeof args, "check %s", scene);
+  ck_assert_int_eq(run(args, err, sizeof err), 0);
+  char path[600], buf[4096];
+  snprintf(path, sizeof path, "%s/stdout.txt", tmpdir);
+  FILE *f = fopen(path, "r");
+  const size_t n = fread(buf, 1, sizeof buf - 1, f);
+  buf[n] = 0;
+  fclose(f);
+  ck_assert_msg(strstr(buf, "warning: pressure (line 9) on set 'box': 10 particles of its region lie under another one "
+                            "of it") != NULL,
+                "%s", buf);
+  ck_assert_msg(strstr(buf, "warning: pressure (line 10)") == NULL, "%s", buf); /* one layer: no warning */
+}
+END_TEST
+
 START_TEST(test_failed_run_exit_1)
 {
   make_tmpdir();
@@ -320,6 +347,7 @@ int main(void)
   tcase_add_loop_test(tc, test_bad_input, 0, (int)(sizeof bad_cases / sizeof bad_cases[0]));
   tcase_add_test(tc, test_missing_scene_file);
   tcase_add_test(tc, test_check_and_run);
+  tcase_add_test(tc, test_check_thick_face);
   tcase_add_test(tc, test_failed_run_exit_1);
   tcase_add_test(tc, test_info_commands);
   tcase_add_test(tc, test_sigint_keeps_state);
