@@ -271,6 +271,11 @@ static int cmd_run(int argc, char **argv, bool check_only)
                  scene->dimension == 2 ? " per m" : "");
         else printf("\n");
         ej_face_warn(scene, s, b, "pressure");
+        if (!s->model->mat)
+          printf("warning: pressure (line %d) on set '%s': material '%s' has no strength model (a fluid): the load "
+                 "pushes the surface particles, which do not hold together as a face; in SPH it does not act as a "
+                 "piston (docs/core.md \"Pressure loads\": use a wall or a piston set)\n",
+                 bc->loc.line, s->name, s->model->name);
       }
     }
     printf("%s: OK (%lld particles, dimension %d, end time %g s)\n", scene_path, total, scene->dimension,

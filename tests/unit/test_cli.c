@@ -183,7 +183,8 @@ START_TEST(test_check_and_run)
 }
 END_TEST
 
-/* A pressure region two particle layers thick: check warns (the load would act on both). */
+/* A pressure region two particle layers thick: check warns (the load would act on both); and on a
+ * fluid set, that the load is no piston. */
 START_TEST(test_check_thick_face)
 {
   make_tmpdir();
@@ -206,7 +207,10 @@ START_TEST(test_check_thick_face)
   ck_assert_msg(strstr(buf, "warning: pressure (line 9) on set 'box': 10 particles of its region lie under another one "
                             "of it") != NULL,
                 "%s", buf);
-  ck_assert_msg(strstr(buf, "warning: pressure (line 10)") == NULL, "%s", buf); /* one layer: no warning */
+  ck_assert_msg(strstr(buf, "(line 10) on set 'box': 10 particles of its region") == NULL, "%s", buf); /* one layer */
+  /* a gas: the load is no piston */
+  ck_assert_msg(strstr(buf, "warning: pressure (line 10) on set 'box': material 'gas' has no strength model") != NULL,
+                "%s", buf);
 }
 END_TEST
 
