@@ -12,6 +12,9 @@ Pr, is, ta, td); the reflected impulse, which that file lacks, from CONWEP's imp
 Tolerances (fixed before the run): peak and impulse within 0.5 % (the step samples the jump at the
 arrival: P dt / 2 is 0.2 % of the impulse at dt = 0.5 us), arrival within one step.
 
+Part C, a ramped pressure on the end of a 1D elastic bar with sph (strength: true), tlpd and rkpm:
+behind the front, stress -P and particle velocity P / (rho c) within 0.5 % (1D elastic waves).
+
 Part B, a ramped surface load on a soil column. Reference: Fan & Li 2017 section 4.1 (digest 000
 section 3.1), the scene of validation/tlpd_soil_column with its tlpd `traction:` block replaced by
 the core's `pressure: {curve: [[0, 0], [0.05 s, P0]]}` on the top layer: static settlement
@@ -209,6 +212,57 @@ def part_b(exe, a, ax):
     return good
 
 
+BAR_E, BAR_RHO, BAR_P = 70e9, 2700.0, 10e6
+
+
+def bar_scene(method, out):
+    strength = "\n    strength: true" if method == "sph" else ""
+    return f"""# validation/pressure_load/check.py part C: a ramped pressure on the end of an elastic bar ({method})
+ejecta: 1
+dimension: 1
+time: {{end: 0.1 ms, cfl: 0.3}}
+output: {{file: {out}, every: 0.05 ms, fields: [v, stress]}}
+materials:
+  al: {{model: elastic, rho0: {BAR_RHO:g}, E: {BAR_E:g}, nu: 0}}
+sets:
+  bar:
+    method: {method}
+    material: al{strength}
+    shape: {{box: {{min: [0], max: [1]}}}}
+    spacing: 0.002
+boundaries:
+  - {{set: bar, region: {{box: {{min: [-1], max: [0.002]}}}}, pressure: {{normal: [-1], curve: [[0, 0], [5 us, {BAR_P:g}]]}}}}
+"""
+
+
+def part_c(exe, a, ax):
+    """1D elastic bar (nu = 0, so the 1D modulus is E): behind the front, stress -P and velocity
+    P / (rho c), c = sqrt(E / rho) (the impedance relation of 1D elastic waves)."""
+    c = math.sqrt(BAR_E / BAR_RHO)
+    v_ref = BAR_P / (BAR_RHO * c)
+    ok = True
+    for k, method in enumerate(("sph", "tlpd", "rkpm")):
+        out = os.path.join(a.out, f"bar_{method}.h5")
+        common.run(exe, bar_scene(method, out), f"bar_{method}", a.out, threads=a.threads, reuse=a.reuse)
+        d = common.read_frame(out)
+        x, v, sxx = d["x"][:, 0], d["v"][:, 0], d["stress"][:, 0]
+        sel = (x > 0.05) & (x < 0.4)  # behind the front (0.51 m at 0.1 ms), past the ramp's 5 us
+        es, ev = sxx[sel].mean() / -BAR_P - 1, v[sel].mean() / v_ref - 1
+        good = abs(es) < TOL and abs(ev) < TOL
+        ok &= good
+        print(f"Part C: 1D elastic bar, {method:4s}: plateau stress {sxx[sel].mean() / 1e6:.4f} MPa ({100 * es:+.3f} %), "
+              f"velocity {v[sel].mean():.5f} m/s against P / (rho c) = {v_ref:.5f} ({100 * ev:+.3f} %)  "
+              f"{'PASS' if good else 'FAIL'}")
+        o = np.argsort(x)
+        ax[3].plot(x[o], -sxx[o] / 1e6, "-", lw=1, color=f"C{k}", label=method)
+    ax[3].axhline(BAR_P / 1e6, color="k", lw=0.8, ls="--")
+    ax[3].set_xlabel("x (m)")
+    ax[3].set_ylabel("-stress_xx (MPa)")
+    ax[3].set_title("bar at 0.1 ms: 10 MPa ramped over 5 us")
+    ax[3].legend(fontsize=8)
+    return ok
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--build", default="build")
@@ -220,12 +274,13 @@ def main():
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(1, 3, figsize=(15, 4.4))
+    fig, ax = plt.subplots(1, 4, figsize=(20, 4.4))
     ok_a = part_a(exe, a, ax)
     ok_b = part_b(exe, a, ax)
+    ok_c = part_c(exe, a, ax)
     fig.tight_layout()
     fig.savefig(os.path.join(HERE, "pressure_load.png"), dpi=110)
-    ok = ok_a and ok_b
+    ok = ok_a and ok_b and ok_c
     print("PASS" if ok else "FAIL")
     return 0 if ok else 1
 
