@@ -1256,7 +1256,7 @@ ej_err ej_scene_describe(ej_buf *b)
       {"periodic", "{axis, min, max} (below)"},
       {"non_reflecting", "{normal | center, rho, cp, cs} (below): viscous dashpots on the particles of region"},
       {"pressure", "{normal | center [, cavity], value | curve | blast} (below): a pressure p(t) on the particles "
-                   "of region"},
+                   "of region (a solid's face; on an SPH gas it is no piston)"},
       {"set", "the set it applies to (default: every set)"},
       {NULL, NULL}};
   static const ej_describe_key probe[] = {
