@@ -40,7 +40,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 import common  # noqa: E402
 
-REF = "/work/shared/reference/kingery_bulmash_freeair_spherical_coefficients_metric.csv"
+# validation/data holds a copy of shared/reference's file (its header names the sources)
+REF = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "data",
+                   "kingery_bulmash_freeair_spherical_coefficients_metric.csv")
 P0 = 101325.0
 RHO_TNT = 1630.0
 W = 1.0

@@ -38,7 +38,7 @@ sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tlpd_soil_column"))
 import common  # noqa: E402
 
 # a copy of shared/reference's file (its header names the sources), so that a clone runs the case alone
-REF = os.path.join(HERE, "kingery_bulmash_freeair_spherical_coefficients_metric.csv")
+REF = os.path.join(os.path.dirname(HERE), "data", "kingery_bulmash_freeair_spherical_coefficients_metric.csv")
 W, H_OFF, DX, DT = 1.0, 1.0, 0.05, 0.5e-6
 ANGLES = (0, 30, 45, 60, 75)
 TOL = 0.005
