@@ -1305,12 +1305,13 @@ ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_
   return p;
 }
 
-/* The pressure loads' force on particle i at the current time (on the face as it was at t = 0) into f,
- * F/m added to a. */
-static void ej_pressure_apply(const ej_sim *sim, const ej_set *s, ej_idx i, ej_real f[3], ej_real a[3])
+/* The pressure loads' force on particle i at the current time (on the face as it was at t = 0, x the
+ * field load_x0) into f, F/m added to a; kept: the field load_blast (the particle's first blast load,
+ * computed once), or NULL. */
+static void ej_pressure_apply(const ej_sim *sim, const ej_set *s, ej_idx i, const ej_real *x, const ej_real *kept,
+                              ej_real f[3], ej_real a[3])
 {
-  const ej_real *x = ej_set_field(s, "load_x0"), *vol0 = s->fields[s->f_vol0].data, *m = s->fields[s->f_m].data;
-  const ej_real *kept = ej_set_field(s, "load_blast"); /* the particle's first blast load, computed once */
+  const ej_real *vol0 = s->fields[s->f_vol0].data, *m = s->fields[s->f_m].data;
   f[0] = f[1] = f[2] = 0;
   uint32_t mask = s->bc_mask[i] & s->pr_bits;
   for (int b = 0; mask; ++b, mask >>= 1)
@@ -1339,6 +1340,7 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   ej_real *nrf = ej_set_field(s, "nr_force"), *nrp = ej_set_field(s, "nr_power");
   const ej_real *vh = in_step ? ej_set_field(s, "v_half") : NULL;
   ej_real *plf = ej_set_field(s, "load_force"), *plp = ej_set_field(s, "load_power");
+  const ej_real *px0 = ej_set_field(s, "load_x0"), *pkept = ej_set_field(s, "load_blast");
   for (ej_idx i = r.begin; i < r.end; ++i) {
     a[3 * i] += g[0], a[3 * i + 1] += g[1], a[3 * i + 2] += g[2];
     if (nrf && (s->bc_mask[i] & s->nr_bits)) {
@@ -1364,7 +1366,7 @@ static ej_err ej_body_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
        * takes the load back. */
       ej_real *fi = plf + 3 * i;
       if (in_step) ej_split_work_start(sim->dt, fi, vh + 3 * i, plp + i);
-      ej_pressure_apply(sim, s, i, fi, a + 3 * i);
+      ej_pressure_apply(sim, s, i, px0, pkept, fi, a + 3 * i);
       if (!in_step) plp[i] = fi[0] * v[3 * i] + fi[1] * v[3 * i + 1] + fi[2] * v[3 * i + 2];
     }
     ej_real power = 0;
