@@ -30,14 +30,8 @@ static long ej_face_covered(const ej_scene *sc, const ej_set *s, int b)
   for (ej_idx a = 0; a < n; ++a) {
     const ej_real *xp = x + 3 * in[a];
     const ej_real h = sc->dimension == 3 ? cbrt(vol0[in[a]]) : sc->dimension == 2 ? sqrt(vol0[in[a]]) : vol0[in[a]];
-    ej_real nv[3] = {bc->normal[0], bc->normal[1], bc->normal[2]};
-    if (bc->radial) {
-      ej_real len = 0;
-      for (int k = 0; k < 3; ++k) nv[k] = xp[k] - bc->point[k], len += nv[k] * nv[k];
-      len = sqrt(len);
-      if (!(len > 0)) continue;
-      for (int k = 0; k < 3; ++k) nv[k] *= (bc->kind == EJ_BC_PRESSURE && bc->cavity ? -1 : 1) / len;
-    }
+    ej_real nv[3];
+    if (!ej_bc_face_normal(bc, xp, nv)) continue;
     for (ej_idx c = 0; c < n; ++c) {
       const ej_real *xq = x + 3 * in[c];
       const ej_real d[3] = {xq[0] - xp[0], xq[1] - xp[1], xq[2] - xp[2]};
@@ -254,7 +248,7 @@ static int cmd_run(int argc, char **argv, bool check_only)
           ++n;
           area += A;
           ej_real nv[3];
-          if (bc->source != EJ_PRESSURE_BLAST || !ej_pressure_normal(bc, x + 3 * p, nv)) continue;
+          if (bc->source != EJ_PRESSURE_BLAST || !ej_bc_face_normal(bc, x + 3 * p, nv)) continue;
           ej_blast_face f;
           ej_blast_peak(bc->burst, bc->tnt, bc->charge, x + 3 * p, nv, &f);
           zlo = fmin(zlo, f.z), zhi = fmax(zhi, f.z);

@@ -165,17 +165,28 @@ ej_real ej_blast_friedlander(ej_real P, ej_real a, ej_real t_d, ej_real tau)
   return P * (1.0 - s) * exp(-a * s);
 }
 
+/* The curves at x (distance R from the charge, R > 0) and the angle rule's weights of the reflected
+ * and incident overpressures for the face's outward normal n. */
+static void kb_face(int burst, ej_real w3, const ej_real charge[3], const ej_real x[3], const ej_real n[3], ej_real *R,
+                    ej_blast_kb *kb, ej_real *fr, ej_real *fi)
+{
+  const ej_real d[3] = {charge[0] - x[0], charge[1] - x[1], charge[2] - x[2]};
+  *R = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  ej_blast_curves(burst, *R / w3, kb);
+  const ej_real c = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) / *R; /* cos of the incidence angle */
+  *fr = c < 0 ? 0.0 : c * c;
+  *fi = c < 0 ? 1.0 : 1.0 + c * c - 2.0 * c;
+}
+
 void ej_blast_point(int burst, ej_real w_tnt, const ej_real charge[3], ej_real t_det, const ej_real x[3],
                     const ej_real n[3], ej_blast_pt *o)
 {
-  const ej_real d[3] = {charge[0] - x[0], charge[1] - x[1], charge[2] - x[2]};
-  const ej_real R = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), w3 = cbrt(w_tnt);
+  const ej_real w3 = cbrt(w_tnt);
   *o = (ej_blast_pt){.t0 = INFINITY};
-  if (!(R > 0) || !(w_tnt > 0)) return;
+  if (!(w_tnt > 0) || (x[0] == charge[0] && x[1] == charge[1] && x[2] == charge[2])) return;
+  ej_real R, fr, fi;
   ej_blast_kb kb;
-  ej_blast_curves(burst, R / w3, &kb);
-  const ej_real c = (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) / R; /* cos of the incidence angle */
-  const ej_real fr = c < 0 ? 0.0 : c * c, fi = c < 0 ? 1.0 : 1.0 + c * c - 2.0 * c;
+  kb_face(burst, w3, charge, x, n, &R, &kb, &fr, &fi);
   o->t0 = t_det + kb.t_a * w3;
   o->td_r = o->td_i = kb.t_d * w3;
   o->a_r = ej_blast_decay(kb.p_r, kb.i_r * w3, &o->td_r);
@@ -202,12 +213,10 @@ ej_real ej_blast_pressure(int burst, ej_real w_tnt, const ej_real charge[3], ej_
 void ej_blast_peak(int burst, ej_real w_tnt, const ej_real charge[3], const ej_real x[3], const ej_real n[3],
                    ej_blast_face *out)
 {
-  const ej_real d[3] = {charge[0] - x[0], charge[1] - x[1], charge[2] - x[2]};
-  const ej_real R = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), w3 = cbrt(w_tnt);
+  const ej_real w3 = cbrt(w_tnt);
+  ej_real R, fr, fi;
   ej_blast_kb kb;
-  ej_blast_curves(burst, R / w3, &kb);
-  const ej_real c = R > 0 ? (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) / R : 1.0;
-  const ej_real fr = c < 0 ? 0.0 : c * c, fi = c < 0 ? 1.0 : 1.0 + c * c - 2.0 * c;
+  kb_face(burst, w3, charge, x, n, &R, &kb, &fr, &fi);
   out->z = R / w3;
   out->t_a = kb.t_a * w3;
   out->p = fr * kb.p_r + fi * kb.p_i;

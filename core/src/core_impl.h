@@ -549,8 +549,9 @@ void ej_blast_peak(int burst, ej_real w_tnt, const ej_real charge[3], const ej_r
 /* The force F of pressure load bc on a particle at x with volume vol0 at time t (sim.c): -p A n on
  * its share A = ej_face_area of the face, n the face's outward normal there; returns p. blast: the
  * particle's kept blast point for a blast load (NULL: computed here). */
-/* The outward unit normal of pressure load bc's face at x; false at a radial face's centre. */
-bool ej_pressure_normal(const ej_scene_bc *bc, const ej_real x[3], ej_real n[3]);
+/* The outward unit normal of a face boundary's face (non_reflecting, pressure) at x: the given
+ * normal, or radial from the centre (towards it for a cavity); false at a radial face's centre. */
+bool ej_bc_face_normal(const ej_scene_bc *bc, const ej_real x[3], ej_real n[3]);
 ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_real vol0, ej_real t,
                          const ej_blast_pt *blast, ej_real F[3]);
 

@@ -1580,6 +1580,12 @@ static const char ej_schema_bc_head[] =
     "{\"additionalProperties\":false,\"required\":[\"periodic\"],\"properties\":{\"set\":{\"type\":\"string\"},"
     "\"periodic\":";
 
+/* The outward normal or centre of a face boundary (non_reflecting, pressure): one of the two. */
+static const char ej_schema_face[] =
+    "{\"oneOf\":[{\"required\":[\"normal\"]},{\"required\":[\"center\"]}],\"properties\":{\"normal\":{\"$ref\":"
+    "\"#/$defs/vector\",\"description\":\"Outward normal of a plane face.\"},\"center\":{\"$ref\":\"#/$defs/"
+    "vector\",\"description\":\"Centre of a spherical (2D: circular) face (m).\"}}}";
+
 static ej_err ej_schema_compact(ej_registry *reg, ej_buf *b)
 {
   EJ_TRY(ej_buf_printf(b, "{\"$schema\":\"https://json-schema.org/draft/2020-12/schema\","
@@ -1620,22 +1626,17 @@ static ej_err ej_schema_compact(ej_registry *reg, ej_buf *b)
                           "\"non_reflecting\":"));
   EJ_TRY(ej_buf_printf(b, "{\"allOf\":["));
   EJ_TRY(ej_params_schema(b, ej_nonrefl_params, ej_nonrefl_manual));
-  EJ_TRY(ej_buf_printf(b, ",{\"oneOf\":[{\"required\":[\"normal\"]},{\"required\":[\"center\"]}],"
-                          "\"properties\":{\"normal\":{\"$ref\":\"#/$defs/vector\",\"description\":\"Outward "
-                          "normal of a plane boundary.\"},\"center\":{\"$ref\":\"#/$defs/vector\",\"description\":"
-                          "\"Centre of a spherical (2D: circular) boundary (m).\"}}}]}"));
+  EJ_TRY(ej_buf_printf(b, ",%s]}", ej_schema_face));
   EJ_TRY(ej_buf_printf(b, "}},{\"additionalProperties\":false,\"required\":[\"pressure\",\"region\"],"
                           "\"properties\":{\"set\":{\"type\":\"string\"},\"region\":{\"$ref\":\"#/$defs/shape\"},"
                           "\"pressure\":{\"allOf\":["));
   EJ_TRY(ej_params_schema(b, ej_pressure_params, ej_pressure_manual));
-  EJ_TRY(ej_buf_printf(b, ",{\"oneOf\":[{\"required\":[\"normal\"]},{\"required\":[\"center\"]}]},"
-                          "{\"oneOf\":[{\"required\":[\"value\"]},{\"required\":[\"curve\"]},{\"required\":"
-                          "[\"blast\"]}],\"properties\":{\"normal\":{\"$ref\":\"#/$defs/vector\",\"description\":"
-                          "\"Outward normal of a plane face.\"},\"center\":{\"$ref\":\"#/$defs/vector\",\"description\":"
-                          "\"Centre of a spherical (2D: circular) face (m).\"},\"curve\":{\"type\":\"array\",\"minItems\":1,"
+  EJ_TRY(ej_buf_printf(b, ",%s,{\"oneOf\":[{\"required\":[\"value\"]},{\"required\":[\"curve\"]},{\"required\":"
+                          "[\"blast\"]}],\"properties\":{\"curve\":{\"type\":\"array\",\"minItems\":1,"
                           "\"description\":\"p(t): [[t, p], ...], linear between the points (s, Pa).\",\"items\":{\"type\":"
                           "\"array\",\"minItems\":2,\"maxItems\":2,\"items\":{\"$ref\":\"#/$defs/quantity\"}}},"
-                          "\"blast\":{\"allOf\":["));
+                          "\"blast\":{\"allOf\":[",
+                       ej_schema_face));
   EJ_TRY(ej_params_schema(b, ej_blast_params, ej_blast_manual));
   EJ_TRY(ej_buf_printf(b, ",{\"required\":[\"charge\"],\"properties\":{\"charge\":{\"$ref\":\"#/$defs/vector\","
                           "\"description\":\"Centre of the charge (m).\"}}}]}}}]}}}]},"));

@@ -629,7 +629,7 @@ static ej_err ej_set_pressure_init(const ej_sim *sim, ej_set *s)
       ej_real n[3];
       if (!(mask & 1u) || bc->source != EJ_PRESSURE_BLAST) continue;
       ej_blast_pt bp = {.t0 = INFINITY}; /* a particle at a radial face's centre: no load */
-      if (ej_pressure_normal(bc, x + 3 * i, n)) ej_blast_point(bc->burst, bc->tnt, bc->charge, bc->t_det, x + 3 * i, n, &bp);
+      if (ej_bc_face_normal(bc, x + 3 * i, n)) ej_blast_point(bc->burst, bc->tnt, bc->charge, bc->t_det, x + 3 * i, n, &bp);
       memcpy(kept + EJ_TENSOR9 * i, &bp, sizeof bp);
       break;
     }
@@ -1156,6 +1156,18 @@ static ej_err ej_zero_chunk(ej_sim *sim, ej_set *s, void *ctx, int64_t c, ej_ran
   return EJ_OK;
 }
 
+bool ej_bc_face_normal(const ej_scene_bc *bc, const ej_real x[3], ej_real n[3])
+{
+  for (int k = 0; k < 3; ++k) n[k] = bc->normal[k];
+  if (!bc->radial) return true;
+  ej_real len = 0;
+  for (int k = 0; k < 3; ++k) n[k] = x[k] - bc->point[k], len += n[k] * n[k];
+  len = sqrt(len);
+  if (!(len > 0)) return false; /* a particle at the centre has no normal */
+  for (int k = 0; k < 3; ++k) n[k] = bc->cavity ? -(n[k] / len) : n[k] / len;
+  return true;
+}
+
 /* The dashpots of the non-reflecting boundaries on particle i (Lysmer & Kuhlemeyer 1969: the traction
  * -rho c_p v_n n - rho c_s v_t on the particle's share of the boundary, A = vol0^((d-1)/d)) as the
  * symmetric matrix K of F = -K v (row-major 3 x 3), summed over the boundaries in mask; n is the
@@ -1168,14 +1180,8 @@ static void ej_nonreflect_matrix(const ej_sim *sim, const ej_set *s, ej_idx i, u
   for (int b = 0; mask; ++b, mask >>= 1) {
     if (!(mask & 1u)) continue;
     const ej_scene_bc *bc = &sim->scene->bcs[b];
-    ej_real n[3] = {bc->normal[0], bc->normal[1], bc->normal[2]};
-    if (bc->radial) {
-      ej_real len = 0;
-      for (int k = 0; k < 3; ++k) n[k] = x[3 * i + k] - bc->point[k], len += n[k] * n[k];
-      len = sqrt(len);
-      if (!(len > 0)) continue; /* a particle at the centre has no outward direction */
-      for (int k = 0; k < 3; ++k) n[k] /= len;
-    }
+    ej_real n[3];
+    if (!ej_bc_face_normal(bc, x + 3 * i, n)) continue;
     const ej_real zp = s->nr_zp[b] * area, zs = s->nr_zs[b] * area;
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) K[3 * r + c] += (zp - zs) * n[r] * n[c] + (r == c ? zs : 0);
@@ -1274,24 +1280,13 @@ static ej_real ej_curve_value(const ej_scene_bc *bc, ej_real t)
   return bc->curve_p[lo] + w * (bc->curve_p[hi] - bc->curve_p[lo]);
 }
 
-bool ej_pressure_normal(const ej_scene_bc *bc, const ej_real x[3], ej_real n[3])
-{
-  for (int k = 0; k < 3; ++k) n[k] = bc->normal[k];
-  if (!bc->radial) return true;
-  ej_real len = 0;
-  for (int k = 0; k < 3; ++k) n[k] = x[k] - bc->point[k], len += n[k] * n[k];
-  len = sqrt(len);
-  if (!(len > 0)) return false; /* a particle at the centre has no normal */
-  for (int k = 0; k < 3; ++k) n[k] *= (bc->cavity ? -1 : 1) / len;
-  return true;
-}
 
 ej_real ej_pressure_load(const ej_scene_bc *bc, int dim, const ej_real x[3], ej_real vol0, ej_real t,
                          const ej_blast_pt *blast, ej_real F[3])
 {
   ej_real n[3];
   F[0] = F[1] = F[2] = 0;
-  if (!ej_pressure_normal(bc, x, n)) return 0;
+  if (!ej_bc_face_normal(bc, x, n)) return 0;
   ej_real p;
   switch (bc->source) {
   case EJ_PRESSURE_VALUE: p = bc->p_value; break;

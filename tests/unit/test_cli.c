@@ -30,6 +30,15 @@ static void write_file(const char *path, const char *text)
   fclose(f);
 }
 
+/* The file at path into buf (NUL-terminated; empty when it cannot be read). */
+static void slurp(const char *path, char *buf, size_t len)
+{
+  FILE *f = fopen(path, "r");
+  size_t n = f ? fread(buf, 1, len - 1, f) : 0;
+  buf[n] = 0;
+  if (f) fclose(f);
+}
+
 /* Runs a command, captures stderr into err, returns the exit code. */
 static int run(const char *args, char *err, size_t errlen)
 {
@@ -160,10 +169,7 @@ START_TEST(test_check_and_run)
     /* check says where each probe measures: the gauge's nearest particle, the tracer's particle */
     char path[600], buf[4096];
     snprintf(path, sizeof path, "%s/stdout.txt", tmpdir);
-    FILE *f = fopen(path, "r");
-    const size_t n = fread(buf, 1, sizeof buf - 1, f);
-    buf[n] = 0;
-    fclose(f);
+    slurp(path, buf, sizeof buf);
     ck_assert_msg(strstr(buf, "probe 'g': gauge in set 'tube' at (0.5, 0, 0) m, nearest particle 0.005 m away, 2 "
                               "columns") &&
                       strstr(buf, "probe 't': tracer of particle id 19 of set 'tube', at (0.195, 0, 0) m") &&
@@ -200,10 +206,7 @@ START_TEST(test_check_thick_face)
   ck_assert_int_eq(run(args, err, sizeof err), 0);
   char path[600], buf[4096];
   snprintf(path, sizeof path, "%s/stdout.txt", tmpdir);
-  FILE *f = fopen(path, "r");
-  const size_t n = fread(buf, 1, sizeof buf - 1, f);
-  buf[n] = 0;
-  fclose(f);
+  slurp(path, buf, sizeof buf);
   ck_assert_msg(strstr(buf, "warning: pressure (line 9) on set 'box': 10 particles of its region lie under another one "
                             "of it") != NULL,
                 "%s", buf);
@@ -264,14 +267,6 @@ START_TEST(test_info_commands)
 END_TEST
 
 /* Reads a whole small file into buf (empty if missing). */
-static void slurp(const char *path, char *buf, size_t len)
-{
-  FILE *f = fopen(path, "r");
-  size_t n = f ? fread(buf, 1, len - 1, f) : 0;
-  buf[n] = 0;
-  if (f) fclose(f);
-}
-
 /* SIGINT during a run: the run stops after the step in progress with exit code 130, leaves a
  * last frame and a checkpoint in NAME.partial (no file under the final name, no XDMF sidecar),
  * and `--restart NAME.partial` continues it to the same state as an uninterrupted run (the same
