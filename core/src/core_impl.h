@@ -578,6 +578,10 @@ typedef struct ej_energy {
   ej_real momentum[3];
 } ej_energy;
 
+/* An optional op appended after ABI 1.0: present in the table and not NULL. */
+#define EJ_HAS_OP(ops, type, member)                                                                    \
+  ((ops)->struct_size >= offsetof(type, member) + sizeof(((type *)0)->member) && (ops)->member)
+
 typedef struct ej_inter {
   const ej_interaction_ops *ops;
   const void *config;

@@ -696,6 +696,57 @@ close_all:
   return rc;
 }
 
+/* Plugin instance state (ABI 1.8 save_state / load_state, EJ_MAX_STATE): a 1-D dataset of the
+ * values save_state gives, none when it gives none. Sets keep theirs in their group, the
+ * interactions in EJ_CP_INTER under "<k>_<model>" (k = the scene's order). */
+#define EJ_CP_STATE "_plugin_state"
+#define EJ_CP_INTER "_interactions"
+
+typedef ej_err (*ej_save_fn)(const void *state, ej_real *buf, int max, int *n);
+typedef ej_err (*ej_load_fn)(void *state, const ej_real *buf, int n);
+
+static ej_err ej_checkpoint_state(hid_t g, const char *name, ej_save_fn save, const void *state, const char *who)
+{
+  ej_real buf[EJ_MAX_STATE];
+  int n = 0;
+  EJ_TRY(save(state, buf, EJ_MAX_STATE, &n));
+  EJ_ENSURE(n >= 0 && n <= EJ_MAX_STATE, EJ_ERR_INTERNAL, "%s: save_state gave %d values (0 .. %d)", who, n,
+            EJ_MAX_STATE);
+  if (n == 0) return EJ_OK;
+  ej_err rc = EJ_OK;
+  hsize_t len = (hsize_t)n;
+  hid_t space = H5Screate_simple(1, &len, NULL), dset = -1;
+  if (space < 0) goto fail;
+  dset = H5Dcreate2(g, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (dset < 0 || H5Dwrite(dset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) goto fail;
+  goto close_all;
+fail:
+  rc = EJ_H5_FAIL(g, name);
+close_all:
+  if (dset >= 0) H5Dclose(dset);
+  if (space >= 0) H5Sclose(space);
+  return rc;
+}
+
+static ej_err ej_checkpoint_interactions(hid_t cp, const ej_sim *sim)
+{
+  bool any = false;
+  for (int k = 0; k < sim->n_inter; ++k) any |= EJ_HAS_OP(sim->inter[k].ops, ej_interaction_ops, save_state);
+  if (!any) return EJ_OK;
+  hid_t g;
+  EJ_TRY(ej_h5_group(cp, EJ_CP_INTER, &g));
+  ej_err rc = EJ_OK;
+  for (int k = 0; k < sim->n_inter && rc == EJ_OK; ++k) {
+    const ej_inter *in = &sim->inter[k];
+    if (!EJ_HAS_OP(in->ops, ej_interaction_ops, save_state)) continue;
+    char name[160];
+    snprintf(name, sizeof name, "%d_%s", k, in->ops->name);
+    rc = ej_checkpoint_state(g, name, in->ops->save_state, in->state, in->ops->name);
+  }
+  H5Gclose(g);
+  return rc;
+}
+
 static ej_err ej_checkpoint_set(hid_t cp, const ej_set *s)
 {
   ej_err rc = EJ_OK;
@@ -708,6 +759,8 @@ static ej_err ej_checkpoint_set(hid_t cp, const ej_set *s)
   }
   if (s->bc_mask) EJ_TRY_GOTO(rc, ej_checkpoint_bc_mask(g, s), close_group);
   if (s->bond_flags) EJ_TRY_GOTO(rc, ej_checkpoint_bonds(g, s), close_group);
+  if (s->mops && EJ_HAS_OP(s->mops, ej_method_ops, save_state))
+    EJ_TRY_GOTO(rc, ej_checkpoint_state(g, EJ_CP_STATE, s->mops->save_state, s->mstate, s->mops->name), close_group);
 close_group:
   H5Gclose(g);
   return rc;
@@ -737,6 +790,7 @@ ej_err ej_output_checkpoint(ej_output *out, const ej_sim *sim)
   EJ_TRY_GOTO(rc, ej_h5_attr_double(cp, "energy_work_gravity", sim->energy.work_gravity), close_cp);
   EJ_TRY_GOTO(rc, ej_h5_attr_double(cp, "energy_total0", sim->energy.total0), close_cp);
   for (int k = 0; k < sim->n_sets; ++k) EJ_TRY_GOTO(rc, ej_checkpoint_set(cp, sim->sets[k]), close_cp);
+  EJ_TRY_GOTO(rc, ej_checkpoint_interactions(cp, sim), close_cp);
 close_cp:
   H5Gclose(cp);
   if (rc != EJ_OK) return rc;
@@ -899,6 +953,57 @@ close_all:
   return rc;
 }
 
+/* The state values NAME of g, if the checkpoint has them, handed to load (ABI 1.8). */
+static ej_err ej_cp_state(const ej_cp_reader *r, hid_t g, const char *name, ej_load_fn load, void *state,
+                          const char *who)
+{
+  if (H5Lexists(g, name, H5P_DEFAULT) <= 0) {
+    H5Eclear2(H5E_DEFAULT);
+    return EJ_OK; /* an older checkpoint: the state stays as setup left it */
+  }
+  ej_real buf[EJ_MAX_STATE];
+  hid_t dset = H5Dopen2(g, name, H5P_DEFAULT), space = dset >= 0 ? H5Dget_space(dset) : -1;
+  const hssize_t len = space >= 0 ? H5Sget_simple_extent_npoints(space) : -1;
+  herr_t st = len > 0 && len <= EJ_MAX_STATE ? 0 : -1;
+  if (st == 0) st = H5Dread(dset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf);
+  if (space >= 0) H5Sclose(space);
+  if (dset >= 0) H5Dclose(dset);
+  if (st < 0) {
+    H5Eclear2(H5E_DEFAULT);
+    return ej_error_input(&r->loc, "cannot restart from '%s': the state of %s is unreadable", r->path, who);
+  }
+  const ej_err rc = load(state, buf, (int)len);
+  if (rc == EJ_ERR_INPUT || rc == EJ_ERR_ARG) {
+    ej_error_clear();
+    return ej_error_input(&r->loc, "cannot restart from '%s': %s does not take the checkpoint's state (%d values)",
+                          r->path, who, (int)len);
+  }
+  return rc;
+}
+
+static ej_err ej_cp_interactions(const ej_cp_reader *r, hid_t cp, ej_sim *sim)
+{
+  if (H5Lexists(cp, EJ_CP_INTER, H5P_DEFAULT) <= 0) {
+    H5Eclear2(H5E_DEFAULT);
+    return EJ_OK;
+  }
+  hid_t g = H5Gopen2(cp, EJ_CP_INTER, H5P_DEFAULT);
+  if (g < 0) {
+    H5Eclear2(H5E_DEFAULT);
+    return ej_error_input(&r->loc, "cannot restart from '%s': interaction states are unreadable", r->path);
+  }
+  ej_err rc = EJ_OK;
+  for (int k = 0; k < sim->n_inter && rc == EJ_OK; ++k) {
+    ej_inter *in = &sim->inter[k];
+    if (!EJ_HAS_OP(in->ops, ej_interaction_ops, load_state)) continue;
+    char name[160];
+    snprintf(name, sizeof name, "%d_%s", k, in->ops->name);
+    rc = ej_cp_state(r, g, name, in->ops->load_state, in->state, in->ops->name);
+  }
+  H5Gclose(g);
+  return rc;
+}
+
 static ej_err ej_cp_set(const ej_cp_reader *r, hid_t cp, ej_set *s)
 {
   ej_err rc = EJ_OK;
@@ -957,6 +1062,8 @@ static ej_err ej_cp_set(const ej_cp_reader *r, hid_t cp, ej_set *s)
     }
   }
   H5Eclear2(H5E_DEFAULT);
+  if (rc == EJ_OK && s->mops && EJ_HAS_OP(s->mops, ej_method_ops, load_state))
+    rc = ej_cp_state(r, g, EJ_CP_STATE, s->mops->load_state, s->mstate, s->mops->name);
 close_group:
   H5Gclose(g);
   return rc;
@@ -1022,6 +1129,7 @@ ej_err ej_checkpoint_read(const char *path, ej_sim *sim)
   EJ_TRY_GOTO(rc, ej_cp_attr(&r, cp, "energy_work_gravity", H5T_NATIVE_DOUBLE, &external), close_cp);
   EJ_TRY_GOTO(rc, ej_cp_attr(&r, cp, "energy_total0", H5T_NATIVE_DOUBLE, &total0), close_cp);
   for (int k = 0; k < sim->n_sets; ++k) EJ_TRY_GOTO(rc, ej_cp_set(&r, cp, sim->sets[k]), close_cp);
+  EJ_TRY_GOTO(rc, ej_cp_interactions(&r, cp, sim), close_cp);
   sim->t = t;
   sim->dt = dt;
   sim->step = step;

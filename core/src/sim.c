@@ -54,10 +54,6 @@ ej_err ej_decl_probe(const ej_method_ops *m, const void *config, ej_set *s)
   return m->declare(config, s->dim, &d);
 }
 
-/* An optional op appended after ABI 1.0: present in the table and not NULL. */
-#define EJ_HAS_OP(ops, type, member)                                                                    \
-  ((ops)->struct_size >= offsetof(type, member) + sizeof(((type *)0)->member) && (ops)->member)
-
 static double ej_wall(void)
 {
   struct timespec ts;

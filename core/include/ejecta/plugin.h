@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 7 /* members appended to an info or ops struct        */
+#define EJ_ABI_MINOR 8 /* members appended to an info or ops struct        */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -374,6 +374,17 @@ typedef struct ej_series_value {
 } ej_series_value;
 #define EJ_MAX_SERIES 16 /* per plugin instance */
 
+/* Checkpointed instance state (ABI 1.8, ej_method_ops and ej_interaction_ops save_state /
+ * load_state). A checkpoint holds every field and the bond flags; what a plugin keeps in its own
+ * state and needs to continue a run (a rigid body's orientation, the work or dissipation it has
+ * summed so far, the previous step's power of a trapezoid rule) it hands to the core through
+ * save_state: at most max (= EJ_MAX_STATE) values into buf, their count into *n. The core writes
+ * them with every checkpoint and, on a restart, after create and setup and after the checkpoint's
+ * fields are read, passes them back to load_state with the count saved; a checkpoint without them
+ * (written by an older build) leaves the state as setup made it. With both a restarted run
+ * continues bitwise (tests/unit/test_restart_methods.c). */
+#define EJ_MAX_STATE 64
+
 typedef struct ej_method_ops {
   size_t struct_size;
   const char *name, *summary, *doc;
@@ -429,6 +440,10 @@ typedef struct ej_method_ops {
    * its own and the other sets' neighbours, `renormalize_interfaces`). Writes only particles in
    * r; reads only particles in r. May be NULL. */
   ej_err (*finish)(void *state, ej_set *set, ej_range r);
+  /* --- ABI 1.8. Instance state that lives neither in fields nor in bond flags (a rigid body's
+   * orientation, work summed over the run): see EJ_MAX_STATE. May be NULL. */
+  ej_err (*save_state)(const void *state, ej_real *buf, int max, int *n);
+  ej_err (*load_state)(void *state, const ej_real *buf, int n);
 } ej_method_ops;
 #define EJ_PASS_POST_STEP (-1) /* pass_writes: the fields post_step writes */
 
@@ -482,6 +497,11 @@ typedef struct ej_interaction_ops {
    * adds the other set's share of sph's shape tensor this way, before the pass that inverts it
    * ("M_inv"). */
   const char *pre_pass_before;
+  /* --- ABI 1.8. Instance state that lives neither in fields nor in bond flags (work or
+   * dissipation summed over the run, the previous step's power of a trapezoid rule): see
+   * EJ_MAX_STATE. May be NULL. */
+  ej_err (*save_state)(const void *state, ej_real *buf, int max, int *n);
+  ej_err (*load_state)(void *state, const ej_real *buf, int n);
 } ej_interaction_ops;
 
 /* ------------------------------------------------------------------ registration */

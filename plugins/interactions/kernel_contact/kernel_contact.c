@@ -267,6 +267,25 @@ static ej_err kc_stable_dt(void *state, const ej_set *a, const ej_set *b, ej_rea
   return EJ_OK;
 }
 
+/* Checkpointed state (ABI 1.8): the dissipation summed so far and the rate at the end of the
+ * last step (the trapezoid's left end), so that a restarted run's energy budget continues. */
+static ej_err kc_save_state(const void *state, ej_real *buf, int max, int *n)
+{
+  const kc_state *s = state;
+  EJ_ENSURE(max >= 3, EJ_ERR_INTERNAL, "kernel_contact: %d state slots, needs 3", max);
+  buf[0] = s->dissipated, buf[1] = s->drate_prev, buf[2] = s->started;
+  *n = 3;
+  return EJ_OK;
+}
+
+static ej_err kc_load_state(void *state, const ej_real *buf, int n)
+{
+  kc_state *s = state;
+  EJ_ENSURE(n == 3, EJ_ERR_INPUT, "kernel_contact: %d state values in the checkpoint, expected 3", n);
+  s->dissipated = buf[0], s->drate_prev = buf[1], s->started = buf[2] != 0;
+  return EJ_OK;
+}
+
 static const ej_interaction_ops kc_ops = {
     .struct_size = sizeof(ej_interaction_ops),
     .name = "kernel_contact",
@@ -289,6 +308,8 @@ static const ej_interaction_ops kc_ops = {
     .post_step = kc_post_step,
     .post_step_sums_only = true, /* work and force sums only: no particle field written */
     .report = kc_report,
+    .save_state = kc_save_state,
+    .load_state = kc_load_state,
 };
 
 static ej_err kc_register(ej_registry *reg)

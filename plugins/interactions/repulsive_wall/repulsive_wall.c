@@ -273,6 +273,29 @@ static ej_err rw_stable_dt(void *state, const ej_set *a, const ej_set *b, ej_rea
   return EJ_OK;
 }
 
+/* Checkpointed state (ABI 1.8): the wall work summed so far and the power at the end of
+ * the last step (the trapezoid's left end), so that a restarted run's energy budget continues. */
+static ej_err rw_save_state(const void *state, ej_real *buf, int max, int *n)
+{
+  const rw_state *s = state;
+  EJ_ENSURE(max >= 3, EJ_ERR_INTERNAL, "repulsive_wall: %d state slots, needs 3", max);
+  buf[0] = s->work;
+  buf[1] = s->power_prev;
+  buf[2] = (ej_real)s->started;
+  *n = 3;
+  return EJ_OK;
+}
+
+static ej_err rw_load_state(void *state, const ej_real *buf, int n)
+{
+  rw_state *s = state;
+  EJ_ENSURE(n == 3, EJ_ERR_INPUT, "repulsive_wall: %d state values in the checkpoint, expected 3", n);
+  s->work = buf[0];
+  s->power_prev = buf[1];
+  s->started = buf[2] != 0;
+  return EJ_OK;
+}
+
 static const ej_interaction_ops rw_ops = {
     .struct_size = sizeof(ej_interaction_ops),
     .name = "repulsive_wall",
@@ -296,6 +319,8 @@ static const ej_interaction_ops rw_ops = {
     .post_step_sums_only = true, /* work and force sums only: no particle field written */
     .report = rw_report,
     .n_sets = 2,
+    .save_state = rw_save_state,
+    .load_state = rw_load_state,
 };
 
 static ej_err rw_register(ej_registry *reg) { return ej_register_interaction(reg, &rw_ops); }

@@ -236,6 +236,32 @@ static ej_err ri_report(void *state, ej_series_value *out, int max, int *n)
   return EJ_OK;
 }
 
+/* Checkpointed state (ABI 1.8): the indenter's work summed so far and the sums F.v and F.a
+ * at the end of the last step (the left end of its work rule), so that a restarted run's energy
+ * budget continues. */
+static ej_err ri_save_state(const void *state, ej_real *buf, int max, int *n)
+{
+  const ri_state *s = state;
+  EJ_ENSURE(max >= 4, EJ_ERR_INTERNAL, "rigid_indenter: %d state slots, needs 4", max);
+  buf[0] = s->work;
+  buf[1] = s->P_prev;
+  buf[2] = s->Q_prev;
+  buf[3] = (ej_real)s->primed;
+  *n = 4;
+  return EJ_OK;
+}
+
+static ej_err ri_load_state(void *state, const ej_real *buf, int n)
+{
+  ri_state *s = state;
+  EJ_ENSURE(n == 4, EJ_ERR_INPUT, "rigid_indenter: %d state values in the checkpoint, expected 4", n);
+  s->work = buf[0];
+  s->P_prev = buf[1];
+  s->Q_prev = buf[2];
+  s->primed = buf[3] != 0;
+  return EJ_OK;
+}
+
 static const ej_interaction_ops ri_ops = {
     .struct_size = sizeof(ej_interaction_ops),
     .name = "rigid_indenter",
@@ -256,6 +282,8 @@ static const ej_interaction_ops ri_ops = {
     .post_step = ri_post_step,
     .post_step_sums_only = true, /* work and force sums only: no particle field written */
     .report = ri_report,
+    .save_state = ri_save_state,
+    .load_state = ri_load_state,
 };
 
 static ej_err ri_register(ej_registry *reg)

@@ -520,6 +520,29 @@ static ej_err sw_report(void *state, ej_series_value *out, int max, int *n)
   return EJ_OK;
 }
 
+/* Checkpointed state (ABI 1.8): the wall work summed so far and the power at the end of
+ * the last step (the trapezoid's left end), so that a restarted run's energy budget continues. */
+static ej_err sw_save_state(const void *state, ej_real *buf, int max, int *n)
+{
+  const sw_state *s = state;
+  EJ_ENSURE(max >= 3, EJ_ERR_INTERNAL, "sph_wall: %d state slots, needs 3", max);
+  buf[0] = s->work;
+  buf[1] = s->power_prev;
+  buf[2] = (ej_real)s->have_power;
+  *n = 3;
+  return EJ_OK;
+}
+
+static ej_err sw_load_state(void *state, const ej_real *buf, int n)
+{
+  sw_state *s = state;
+  EJ_ENSURE(n == 3, EJ_ERR_INPUT, "sph_wall: %d state values in the checkpoint, expected 3", n);
+  s->work = buf[0];
+  s->power_prev = buf[1];
+  s->have_power = buf[2] != 0;
+  return EJ_OK;
+}
+
 static const ej_interaction_ops sw_ops = {
     .struct_size = sizeof(ej_interaction_ops),
     .name = "sph_wall",
@@ -544,6 +567,8 @@ static const ej_interaction_ops sw_ops = {
     .report = sw_report,
     .n_sets = 2,
     .n_pre_passes = 1,
+    .save_state = sw_save_state,
+    .load_state = sw_load_state,
 };
 
 static ej_err sw_register(ej_registry *reg) { return ej_register_interaction(reg, &sw_ops); }

@@ -2685,6 +2685,29 @@ static ej_err tlpd_counters(void *state, ej_counter *out, int max, int *n)
 
 /* ------------------------------------------------------------------ registration */
 
+/* Checkpointed state (ABI 1.8): the traction work and the damping dissipation summed so far
+ * and the time they were last summed to, so that a restarted run's energy budget continues. */
+static ej_err tlpd_save_state(const void *state, ej_real *buf, int max, int *n)
+{
+  const tlpd_state *s = state;
+  EJ_ENSURE(max >= 3, EJ_ERR_INTERNAL, "tlpd: %d state slots, needs 3", max);
+  buf[0] = s->w_traction;
+  buf[1] = s->w_damping;
+  buf[2] = s->t_last;
+  *n = 3;
+  return EJ_OK;
+}
+
+static ej_err tlpd_load_state(void *state, const ej_real *buf, int n)
+{
+  tlpd_state *s = state;
+  EJ_ENSURE(n == 3, EJ_ERR_INPUT, "tlpd: %d state values in the checkpoint, expected 3", n);
+  s->w_traction = buf[0];
+  s->w_damping = buf[1];
+  s->t_last = buf[2];
+  return EJ_OK;
+}
+
 static const ej_method_ops tlpd_ops = {
     .struct_size = sizeof(ej_method_ops),
     .name = "tlpd",
@@ -2713,6 +2736,8 @@ static const ej_method_ops tlpd_ops = {
     .destroy = tlpd_destroy,
     .pass_count = NULL,
     .report = tlpd_report,
+    .save_state = tlpd_save_state,
+    .load_state = tlpd_load_state,
 };
 
 static ej_err tlpd_register(ej_registry *reg)
