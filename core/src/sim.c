@@ -943,7 +943,11 @@ static ej_err ej_lists_from_build(ej_sim *sim)
     if (s->nbr_config == EJ_NBR_REFERENCE && !s->list->pub.off) {
       /* Fixed families: built once in the reference configuration, never rebuilt (bond
        * state stored by the method stays aligned with the CSR entries). Mirror and periodic
-       * ghosts are made once too, from the reference positions (x_build = x0 at t = 0). */
+       * ghosts are made once too, from the reference positions (x_build = x0 at t = 0). The
+       * search radii are those of the build (a restart has not computed them: the probes' gauge
+       * weights read them, and the skin watch refreshes them only for sets an interaction
+       * searches). */
+      memcpy(s->radius, s->fields[s->f_rb].data, (size_t)s->n * sizeof(ej_real));
       const ej_real rmax = ej_set_rmax(s, s->fields[s->f_rb].data);
       EJ_TRY(ej_ghosts_build(sim, s, s->f_x0, rmax));
       ej_real *xs, *rs;
@@ -961,6 +965,11 @@ static ej_err ej_lists_from_build(ej_sim *sim)
         EJ_ENSURE(s->bond_flags, EJ_ERR_MEM, "out of memory");
         s->n_bonds = nb;
       }
+      continue;
+    }
+    if (s->nbr_config == EJ_NBR_NONE && !s->in_interaction && s->n > 0 && s->mops->support) {
+      /* no list and no skin watch: the radii only for a probe's gauge weights (after a restart too) */
+      EJ_TRY(ej_for_chunks(sim, s, ej_support_chunk, NULL));
       continue;
     }
     if (s->nbr_config != EJ_NBR_CURRENT) continue;

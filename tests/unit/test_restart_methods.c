@@ -23,6 +23,7 @@ const ej_plugin_info *ej_plugin_rigid_indenter_info(void);
 const ej_plugin_info *ej_plugin_repulsive_wall_info(void);
 const ej_plugin_info *ej_plugin_polynomial_info(void);
 const ej_plugin_info *ej_plugin_sph_wall_info(void);
+const ej_plugin_info *ej_plugin_drucker_prager_info(void);
 
 #define RS_STEPS 24
 
@@ -154,6 +155,7 @@ static void rs_plugins(const ej_plugin_info **p, int *np)
   p[n++] = ej_plugin_rigid_body_info(), p[n++] = ej_plugin_kernel_contact_info();
   p[n++] = ej_plugin_rigid_indenter_info(), p[n++] = ej_plugin_repulsive_wall_info();
   p[n++] = ej_plugin_sph_info(), p[n++] = ej_plugin_polynomial_info(), p[n++] = ej_plugin_sph_wall_info();
+  p[n++] = ej_plugin_drucker_prager_info();
   *np = n;
 }
 
@@ -242,6 +244,48 @@ START_TEST(test_rigid_contact_restart)
 {
   const char *move[] = {"kernel_contact_0/dissipated", "box/omega_z"};
   rs_state_case("rsrb", rs_rigid_text, 40, move, 2);
+}
+END_TEST
+
+/* A Drucker-Prager sand column on an sph_wall with the wall's share of the velocity gradient
+ * (wall_gradient): that pre-pass reads sph's h of the previous evaluation, which a restart took
+ * from the initial state while h was a scratch field (validation/sand_collapse's scene differed
+ * after a restart by 7e-8 in the wall force). */
+START_TEST(test_sph_wall_gradient_restart)
+{
+  static const char text[] =
+      "ejecta: 1\ndimension: 2\ntime: {end: 10, cfl: 0.3}\n"
+      "output: {file: out.h5, every: 10, fields: [v]}\n"
+      "materials:\n  sand: {model: drucker_prager, rho0: 1379, E: 21.6 MPa, nu: 0.3, friction_angle: 36 deg,\n"
+      "    dilation_angle: 0 deg, cohesion: 0 Pa, beta: 1}\n  floor: {rho0: 1379}\n"
+      "sets:\n  sand:\n    method: sph\n    strength: true\n    kernel: wendland_c2\n    h_factor: 1.5\n"
+      "    alpha: 0.2\n    beta: 10\n    material: sand\n"
+      "    shape: {box: {min: [0, 0], max: [0.2, 0.1]}}\n    spacing: 0.02\n    velocity: [0.3, -0.5]\n"
+      "  floor:\n    method: rigid_body\n    material: floor\n    fix_translation: [1, 1, 1]\n"
+      "    fix_rotation: [1, 1, 1]\n    shape: {box: {min: [-0.06, -0.06], max: [0.4, 0]}}\n    spacing: 0.02\n"
+      "interactions:\n  - {model: sph_wall, sets: [sand, floor], kernel: wendland_c2, slip: no_slip, alpha: 0.2,"
+      " beta: 10,\n     gravity: [0, -9.81, 0], wall_gradient: true}\n"
+      "gravity: [0, -9.81]\n";
+  const char *move[] = {"sph_wall_0/work"};
+  rs_state_case("rsgw", text, 40, move, 1);
+}
+END_TEST
+
+/* A gauge (probe) on a tlpd set: its weights use the particles' search radii, which a restart did
+ * not compute for a set with a reference-configuration family (count 0 and NaN after the restart
+ * in examples/nonreflecting_2d.yaml). */
+START_TEST(test_probe_reference_restart)
+{
+  static const char text[] =
+      "ejecta: 1\ndimension: 2\ntime: {end: 1, cfl: 0.3}\n"
+      "output: {file: out.h5, every: 1, fields: [v]}\n"
+      "materials:\n  m: {model: elastic, rho0: 2000, E: 1 GPa, nu: 0.25}\n"
+      "sets:\n  solid:\n    method: tlpd\n    material: m\n"
+      "    shape: {box: {min: [0, 0], max: [0.2, 0.1]}}\n    spacing: 0.01\n"
+      "    initial:\n      - {region: {box: {min: [-1, -1], max: [0.05, 1]}}, velocity: [1, 0]}\n"
+      "probes:\n  - {name: g, set: solid, point: [0.08, 0.05], fields: [v]}\n";
+  const char *move[] = {"probe/g/v_x"};
+  rs_state_case("rspr", text, 40, move, 1);
 }
 END_TEST
 
@@ -352,6 +396,8 @@ int main(void)
   tcase_add_test(tc, test_rigid_contact_restart);
   tcase_add_test(tc, test_wall_work_restart);
   tcase_add_test(tc, test_sph_wall_restart);
+  tcase_add_test(tc, test_sph_wall_gradient_restart);
+  tcase_add_test(tc, test_probe_reference_restart);
   tcase_add_test(tc, test_state_mismatch_refused);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);

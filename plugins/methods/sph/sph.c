@@ -244,7 +244,9 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
        .doc = "Neighbour weight of the continuity sum: m/rho (volume form) or m (mass form)."},
       {.name = "p_rho2", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "m^5/(kg s^2)",
        .doc = "p / rho^2, computed once per particle so that the pair loop does not divide."},
-      {.name = "h", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_OUTPUT, .unit = "m",
+      /* not scratch: sph_wall's gradient pre-pass reads the previous evaluation's h, so a restart
+       * needs it from the checkpoint (test_restart_methods test_sph_wall_gradient_restart) */
+      {.name = "h", .kind = EJ_SCALAR, .flags = EJ_FIELD_OUTPUT, .unit = "m",
        .doc = "Smoothing length (kernel support is 2h)."},
       {.name = "w_visc", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "J/kg",
        .rate = "w_visc_dot", .energy = EJ_ENERGY_VISCOUS,
