@@ -289,6 +289,24 @@ START_TEST(test_probe_reference_restart)
 }
 END_TEST
 
+/* The same with the box's level-set normals (rigid_body normals: true, kernel_contact normal: body):
+ * the normals are computed once, in the first evaluation, and must come from the checkpoint. */
+START_TEST(test_body_contact_restart)
+{
+  char text[2048];
+  snprintf(text, sizeof text, "%s", rs_rigid_text);
+  char *o = strstr(text, "    omega: [0, 0, 300]\n");
+  ck_assert_ptr_nonnull(o);
+  memmove(o + 18, o, strlen(o) + 1);
+  memcpy(o, "    normals: true\n", 18);
+  char *m = strstr(text, "damping: 0.3}");
+  ck_assert_ptr_nonnull(m);
+  snprintf(m, sizeof text - (size_t)(m - text), "damping: 0.3, normal: body}\n");
+  const char *move[] = {"kernel_contact_0/dissipated", "box/omega_z"};
+  rs_state_case("rsbn", text, 40, move, 2);
+}
+END_TEST
+
 /* A checkpoint whose plugin state does not fit the plugin (here kernel_contact's 3 values cut to
  * 2) is refused as bad input naming the file, not read into the wrong members. */
 START_TEST(test_state_mismatch_refused)
@@ -398,6 +416,7 @@ int main(void)
   tcase_add_test(tc, test_sph_wall_restart);
   tcase_add_test(tc, test_sph_wall_gradient_restart);
   tcase_add_test(tc, test_probe_reference_restart);
+  tcase_add_test(tc, test_body_contact_restart);
   tcase_add_test(tc, test_state_mismatch_refused);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);

@@ -85,13 +85,15 @@ def beads_material(phi, damage, model="dp"):
 
 def scene(h, s, t_end, phi, damage, width, depth, ball_mod, sb, integration="msnni", msnni_stress="material",
           msnni_w=0.5, stabilization=None, extra_bed="", bed=None, mu=0.3, every="0.5 ms", tag="sphere_drop",
-          header=None, beads="dp", contact_damping=0.0):
+          header=None, beads="dp", contact_damping=0.0, contact_normal="pair"):
     """The scene; bed (the bed set's method lines) and the rest let validation/sphere_drop_methods
     put another method under the same ball, material, contact and walls."""
     v = math.sqrt(2 * G * h)
     zc = surface(s, depth) + R + 0.5 * s  # ball just above the surface (gap s/2)
     stab = "" if stabilization is None else f"\n    stabilization: {stabilization}"
     cdamp = f", damping: {contact_damping:g}" if contact_damping else ""
+    cdamp += "" if contact_normal == "pair" else f", normal: {contact_normal}"
+    bnorm = "" if contact_normal == "pair" else "\n    normals: true"
     if bed is None:
         bed = (f"method: rkpm\n    integration: {integration}\n    msnni_stress: {msnni_stress}\n"
                f"    msnni_w: {msnni_w}{stab}{extra_bed}")
@@ -117,7 +119,7 @@ sets:
     material: steel
     modulus: {ball_mod}
     fix_translation: [1, 1, 0]
-    fix_rotation: [1, 1, 1]
+    fix_rotation: [1, 1, 1]{bnorm}
     shape: {{sphere: {{center: [0, 0, {zc}], radius: {R}}}, minus: [{{half_space: {{point: [0, 0, 0], normal: [1, 0, 0]}}}}, {{half_space: {{point: [0, 0, 0], normal: [0, 1, 0]}}}}]}}
     spacing: {sb}
     velocity: [0, 0, {-v}]
@@ -172,6 +174,8 @@ def main():
                     help="rkpm pairwise viscous `stabilization` of the bed (default 0; the method's own default is 0.1)")
     ap.add_argument("--msnni-part", default=None, choices=["full", "deviatoric"],
                     help="rkpm msnni_part (sub-box stabilisation on the full or deviatoric strain difference)")
+    ap.add_argument("--contact-normal", default="pair", choices=["pair", "body"],
+                    help="kernel_contact `normal` (body: the ball's level-set normal, rigid_body normals: true)")
     ap.add_argument("--contact-damping", type=float, default=0.0,
                     help="kernel_contact `damping` between ball and bed (fraction of critical per pair; default 0)")
     ap.add_argument("--no-figures", action="store_true", help="diagnostic runs: write no figures")
@@ -195,13 +199,15 @@ def main():
                 + ("" if not a.stabilization else f"_stab{a.stabilization:g}")
                 + ("" if a.msnni_part is None else f"_{a.msnni_part[:3]}")
                 + ("" if not a.contact_damping else f"_cd{a.contact_damping:g}")
+                + ("" if a.contact_normal == "pair" else "_nbody")
                 + ctag + a.name_tag)
         r0 = os.times()
         path, wall = common.run(exe, scene(h, s, a.t_end, a.phi, a.damage, a.width, a.depth, a.ball_modulus,
                                                   a.ball_spacing, a.integration, a.msnni_stress,
                                                   a.msnni_w, a.stabilization,
                                                   "" if a.msnni_part is None else f"\n    msnni_part: {a.msnni_part}",
-                                                  beads=a.beads, contact_damping=a.contact_damping),
+                                                  beads=a.beads, contact_damping=a.contact_damping,
+                                                  contact_normal=a.contact_normal),
                                 name, a.out,
                                 threads=a.threads, reuse=a.reuse)
         r1 = os.times()
@@ -255,6 +261,7 @@ def main():
         tag += "" if not a.stabilization else f"_stab{a.stabilization:g}"
         tag += "" if a.beads == "dp" else "_" + a.beads
         tag += "" if not a.contact_damping else f"_cd{a.contact_damping:g}"
+        tag += "" if a.contact_normal == "pair" else "_nbody"
         tag += ctag + a.name_tag
         fig.savefig(os.path.join(os.path.dirname(os.path.abspath(__file__)), f"sphere_drop{tag}.png"), dpi=110)
         # the first drop height through tools/plot_series.py: the energy budget and the ball's centre z

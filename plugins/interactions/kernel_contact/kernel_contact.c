@@ -30,7 +30,11 @@ typedef struct kc_config {
   ej_real damping;
   ej_real stick;
   ej_real modulus;
+  int normal;
 } kc_config;
+
+enum { KC_NORMAL_PAIR = 0, KC_NORMAL_BODY = 1 };
+static const char *const kc_normal_names[] = {"pair", "body", NULL};
 
 static const ej_param kc_params[] = {
     EJ_PARAM_REAL(kc_config, mu, "1", 0.0, 0.0, 2.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
@@ -49,6 +53,11 @@ static const ej_param kc_params[] = {
     EJ_PARAM_REAL(kc_config, modulus, "Pa", 0.0, 0.0, 0.0, EJ_PF_HAS_MIN,
                   "Modulus for the penalty instead of rho c^2 (needed when a set's method has no rho and c "
                   "fields); 0 takes rho c^2 per particle."),
+    EJ_PARAM_ENUM(kc_config, normal, kc_normal_names, "pair",
+                  "Contact normal: pair, the direction between the two points; body, the outward surface normal of "
+                  "a rigid_body set with normals: true (the level-set normal of Chi et al. 2015): the gap is "
+                  "measured along it, so a point that slips between two points of the other body is still pushed "
+                  "out, and the force is weighted down smoothly with the lateral offset."),
     {0}};
 
 #define KC_NSERIES 6
@@ -56,6 +65,7 @@ static const ej_param kc_params[] = {
 typedef struct kc_state {
   kc_config cfg;
   ej_set *a, *b;
+  const ej_set *body; /* normal: body, the set whose rb_n gives the normals */
   int dim;
   ej_idx n_a;
   ej_real *drate; /* [n_a] dissipation rate of a's pairs, W */
@@ -82,9 +92,18 @@ static ej_err kc_create(const void *config, ej_set *a, ej_set *b, void **state)
       EJ_ENSURE(ej_set_field(sets[k], "rho") && ej_set_field(sets[k], "c"), EJ_ERR_UNSUPPORTED,
                 "kernel_contact: set '%s' has no rho and c fields for the penalty stiffness; give `modulus`",
                 ej_set_name(sets[k]));
+  const ej_set *body = NULL;
+  if (cfg->normal == KC_NORMAL_BODY) {
+    body = ej_set_field(b, "rb_n") ? b : ej_set_field(a, "rb_n") ? a : NULL;
+    EJ_ENSURE(body, EJ_ERR_INPUT,
+              "kernel_contact: normal: body needs a rigid_body set with normals: true, and neither '%s' nor '%s' "
+              "has surface normals (field rb_n)",
+              ej_set_name(a), ej_set_name(b));
+  }
   kc_state *s = ej_calloc(1, sizeof *s);
   EJ_ENSURE(s, EJ_ERR_MEM, "kernel_contact: out of memory");
   s->cfg = *cfg;
+  s->body = body;
   s->a = a;
   s->b = b;
   s->dim = ej_set_dim(a);
@@ -121,6 +140,102 @@ static inline ej_real kc_k(const kc_config *cfg, int dim, ej_real rho, ej_real c
   return cfg->penalty * M * hp;
 }
 
+/* normal: body, a kernel-sampled level set of the rigid body. Each body point b carries the
+ * outward normal u_b of its nearest surface point and its depth D_b below the surface (rigid_body
+ * normals: true), so that phi(x) = (x - x_b).u_b - D_b estimates the signed distance of x to the
+ * body's surface near b. For the pair (p of self, q of other), n is the direction from self into
+ * the contact: +u_p if self is the body, -u_q otherwise, so that the pair's two evaluations see
+ * n and -n exactly. With d = x_q - x_p and r = |d| < delta, the penetration is g = delta - d.n +
+ * D_b (delta minus the other point's phi) and the pair's potential U = k g^2 psi / 2 with psi =
+ * (1 - r^2 / delta^2)^2: it vanishes smoothly where a pair enters or leaves (no jump in the force),
+ * and it grows with the depth a point has reached inside the body, which its points all push out
+ * through the nearest surface (their normals agree), where the pair directions of the pair form
+ * cancel and let it through. The force on p is -dU/dx_p = -k g psi n - 2 k g^2 (1 - r^2/delta^2) /
+ * delta^2 d (with n held: exact for a body that translates; its turning is not differentiated);
+ * damping and friction act as in the pair form. Every factor is symmetric and every vector
+ * antisymmetric bitwise, so momentum is conserved as in the pair form. */
+static ej_err kc_compute_body(kc_state *s, ej_set *self, ej_set *other, const ej_nbr *nbr, ej_range r)
+{
+  const bool primary = self == s->a, self_body = self == s->body;
+  const ej_real *xi = ej_set_field(self, "x"), *vi = ej_set_field(self, "v"), *mi = ej_set_field(self, "m");
+  const ej_real *V0i = ej_set_field(self, "vol0"), *rhoi = ej_set_field(self, "rho"), *ci = ej_set_field(self, "c");
+  const ej_real *xj = ej_set_field(other, "x"), *vj = ej_set_field(other, "v"), *mj = ej_set_field(other, "m");
+  const ej_real *V0j = ej_set_field(other, "vol0"), *rhoj = ej_set_field(other, "rho"), *cj = ej_set_field(other, "c");
+  const ej_real *un = ej_set_field(self_body ? self : other, "rb_n");
+  const ej_real *dep = ej_set_field(self_body ? self : other, "rb_depth");
+  ej_real *acc = ej_set_field(self, "a");
+  EJ_ENSURE(xi && vi && mi && V0i && xj && vj && mj && V0j && acc && un && dep, EJ_ERR_INTERNAL,
+            "kernel_contact: fields missing");
+  const kc_config *cfg = &s->cfg;
+  const bool own_mod = cfg->modulus > 0;
+  EJ_ENSURE(own_mod || (rhoi && ci && rhoj && cj), EJ_ERR_INTERNAL, "kernel_contact: rho or c missing");
+  const int dim = s->dim;
+  const ej_real dt = ej_set_dt(self);
+  for (ej_idx i = r.begin; i < r.end; ++i) {
+    const ej_real hi = kc_root(dim, V0i[i]);
+    const ej_real ki = kc_k(cfg, dim, own_mod ? 0 : rhoi[i], own_mod ? 0 : ci[i], hi);
+    ej_real f[3] = {0, 0, 0}, drate = 0, upot = 0;
+    int32_t np = 0;
+    for (ej_off q = nbr->off[i]; q < nbr->off[i + 1]; ++q) {
+      const ej_idx j = nbr->idx[q];
+      const ej_real hj = kc_root(dim, V0j[j]);
+      const ej_real delta = cfg->distance * (0.5 * (hi + hj));
+      ej_real n[3], d[3];
+      for (int k = 0; k < 3; ++k) {
+        n[k] = self_body ? un[3 * i + k] : -un[3 * j + k];
+        d[k] = xj[3 * j + k] - xi[3 * i + k];
+      }
+      const ej_real dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
+      const ej_real g = delta - dn + dep[self_body ? i : j];
+      if (!(g > 0)) continue;
+      const ej_real q2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / (delta * delta);
+      if (!(q2 < 1)) continue;
+      const ej_real om = 1 - q2, psi = om * om;
+      const ej_real kj = kc_k(cfg, dim, own_mod ? 0 : rhoj[j], own_mod ? 0 : cj[j], hj);
+      /* per point of the other body, the weights psi of a flat face of the body sum to about
+       * S = int psi dA / s_b^(dim-1) = (16/15) delta / s_b (2D), (pi/3) (delta / s_b)^2 (3D): the
+       * pair stiffness is divided by it (at least 1), so that a point resting on a face feels
+       * about k, as one head-on pair of the pair form does, and the pair time step holds */
+      const ej_real rb = cfg->distance * 0.5 * (hi + hj) / (self_body ? hi : hj);
+      const ej_real S = dim == 3 ? 1.0471975511965976 * rb * rb /* pi/3 */ : dim == 2 ? (16.0 / 15.0) * rb : 1.0;
+      const ej_real kij = 2.0 * (ki * kj) / (ki + kj) / (S > 1 ? S : 1);
+      const ej_real mij = (mi[i] * mj[j]) / (mi[i] + mj[j]);
+      ej_real vr[3];
+      for (int k = 0; k < 3; ++k) vr[k] = vj[3 * j + k] - vi[3 * i + k];
+      const ej_real vn = vr[0] * n[0] + vr[1] * n[1] + vr[2] * n[2];
+      const ej_real cd = 2.0 * cfg->damping * sqrt(kij * mij) * psi;
+      const ej_real Nel = kij * g * psi;
+      ej_real N = Nel - cd * vn;
+      if (N < 0) N = 0;
+      const ej_real lat = 2.0 * kij * g * g * om / (delta * delta);
+      ej_real vt[3];
+      for (int k = 0; k < 3; ++k) vt[k] = vr[k] - vn * n[k];
+      const ej_real vt_norm = sqrt(vt[0] * vt[0] + vt[1] * vt[1] + vt[2] * vt[2]);
+      ej_real T = 0;
+      if (cfg->mu > 0 && vt_norm > 0 && dt > 0) {
+        const ej_real stick = cfg->stick * mij * vt_norm / dt, slide = cfg->mu * N;
+        T = stick < slide ? stick : slide;
+      }
+      const ej_real tf = vt_norm > 0 ? T / vt_norm : 0;
+      for (int k = 0; k < 3; ++k) f[k] += -N * n[k] - lat * d[k] + tf * vt[k];
+      if (primary) {
+        drate += T * vt_norm + (Nel - N) * vn;
+        upot += 0.5 * kij * g * g * psi;
+        ++np;
+      }
+    }
+    const ej_real inv_m = 1.0 / mi[i];
+    for (int k = 0; k < dim; ++k) acc[3 * i + k] += f[k] * inv_m;
+    if (primary) {
+      s->drate[i] = drate;
+      s->upot[i] = upot;
+      s->npair[i] = np;
+      for (int k = 0; k < 3; ++k) s->force[3 * i + k] = f[k];
+    }
+  }
+  return EJ_OK;
+}
+
 static ej_err kc_compute(void *state, ej_set *self, ej_set *other, const ej_nbr *nbr, int pass, ej_range r)
 {
   (void)pass;
@@ -141,6 +256,7 @@ static ej_err kc_compute(void *state, ej_set *self, ej_set *other, const ej_nbr 
   EJ_ENSURE(own_mod || (rhoi && ci && rhoj && cj), EJ_ERR_INTERNAL, "kernel_contact: rho or c missing");
   const int dim = s->dim;
   const ej_real dt = ej_set_dt(self);
+  if (s->body) return kc_compute_body(s, self, other, nbr, r);
   for (ej_idx i = r.begin; i < r.end; ++i) {
     const ej_real hi = kc_root(dim, V0i[i]);
     const ej_real ki = kc_k(cfg, dim, own_mod ? 0 : rhoi[i], own_mod ? 0 : ci[i], hi);

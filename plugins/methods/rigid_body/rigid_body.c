@@ -33,6 +33,7 @@ typedef struct rb_config {
   ej_real fix_translation[3];
   ej_real fix_rotation[3];
   ej_real omega[3];
+  bool normals;
 } rb_config;
 
 static const ej_param rb_params[] = {
@@ -45,6 +46,11 @@ static const ej_param rb_params[] = {
                    "Per axis 1 to lock the body's rotation about that axis (1 1 1 in a quarter model), 0 free."),
     EJ_PARAM_ARRAY(rb_config, omega, 3, "1/s", 0,
                    "Initial angular velocity about the centre of mass (rad/s), added to the scene's velocity."),
+    EJ_PARAM_BOOL(rb_config, normals, 0,
+                  "Outward surface normal of every point (field rb_n, turning with the body), for kernel_contact's "
+                  "normal: body (the level-set normal of the body): a surface point's from the gradient of the "
+                  "body's colour function (its mirror and periodic images included), an interior point's that of "
+                  "its nearest surface point. Builds a neighbour list of the body (support 2 spacings)."),
     {0},
 };
 
@@ -59,6 +65,7 @@ typedef struct rb_state {
   ej_real z_min, rigid_err;
   int64_t steps;
   bool ready; /* M and I0 known (setup, or rebuilt from rb_r0 after a restart) */
+  int64_t n_surface; /* points found on the surface (normals: true) */
 } rb_state;
 
 static ej_err rb_check_config(const void *config, ej_diag *diag)
@@ -89,7 +96,24 @@ static ej_err rb_declare(const void *config, int dim, ej_decl *d)
               "configuration)."},
   };
   for (size_t k = 0; k < sizeof fields / sizeof fields[0]; ++k) EJ_TRY(ej_decl_field(d, &fields[k]));
-  EJ_TRY(ej_decl_neighbours(d, EJ_NBR_NONE));
+  const rb_config *cfg = config;
+  if (cfg && cfg->normals) {
+    static const ej_field_decl nf[] = {
+        {.name = "rb_n", .kind = EJ_VEC3, .flags = EJ_FIELD_OUTPUT, .unit = "1",
+         .doc = "Outward unit surface normal of the body at the point (an interior point: that of its nearest "
+                "surface point), turning with the body (normals: true)."},
+        {.name = "rb_n0", .kind = EJ_VEC3, .flags = EJ_FIELD_NO_GHOST, .unit = "1",
+         .doc = "rb_n in the body frame (normals: true)."},
+        {.name = "rb_depth", .kind = EJ_SCALAR, .flags = 0, .unit = "m",
+         .doc = "Depth of the point below the body's surface (0 on the surface; inside, the distance to its "
+                "nearest surface point along the body's points), so that depth - (x - x_p).rb_n samples the "
+                "body's signed distance (level set) near x (normals: true)."},
+    };
+    for (size_t k = 0; k < sizeof nf / sizeof nf[0]; ++k) EJ_TRY(ej_decl_field(d, &nf[k]));
+    EJ_TRY(ej_decl_neighbours(d, EJ_NBR_CURRENT));
+  } else {
+    EJ_TRY(ej_decl_neighbours(d, EJ_NBR_NONE));
+  }
   return EJ_OK;
 }
 
@@ -218,17 +242,119 @@ static ej_err rb_setup(void *state, ej_set *set)
 
 static ej_err rb_support(void *state, const ej_set *set, ej_range r, ej_real *radius)
 {
-  (void)state;
-  const ej_real h = ej_set_spacing_min(set);
+  const rb_state *s = state;
+  /* normals: the colour gradient's support, 2 spacings (also the reach of the ghost layer) */
+  const ej_real h = (s->cfg.normals ? 2.0 : 1.0) * ej_set_spacing_min(set);
   for (ej_idx i = r.begin; i < r.end; ++i) radius[i - r.begin] = h;
   return EJ_OK;
 }
 
-/* Nothing per particle: the body's accelerations are set in post_step (see the top comment). */
+/* dW/dq of the cubic spline with support 2 (unnormalised: only directions are used). */
+static inline ej_real rb_spline_dq(ej_real q)
+{
+  return q < 1 ? -3.0 * q + 2.25 * q * q : q < 2 ? -0.75 * (2 - q) * (2 - q) : 0;
+}
+
+/* The body's surface normals (normals: true), once, in the first force evaluation, when the list and
+ * the mirror and periodic images exist. A point is on the surface when fewer points (images
+ * included) lie within 1.5 spacings of it than around the most surrounded point of the body (a
+ * lattice's interior count; the first layer under a face has it, the face layer lacks its outer
+ * neighbour). Its outward normal is -grad C / |grad C| with C = sum_j vol0_j W(|x - x_j|, h = s)
+ * (images included, so a symmetry plane is no surface). An interior point takes the normal of the
+ * surface point nearest along the list's edges (relaxed in index order until nothing changes:
+ * deterministic). The normals are stored in the body frame (rb_n0) and turned with the body
+ * (rb_n). Serial: run by the chunk that begins at 0 (the others have nothing to do). */
+static ej_err rb_normals_work(rb_state *s, ej_set *set, const ej_nbr *nbr, int *cnt, ej_idx *src, ej_real *dist,
+                             ej_real *nw)
+{
+  const ej_idx n = ej_set_count(set);
+  const ej_real *x = ej_set_field(set, "x"), *V = ej_set_field(set, "vol0");
+  ej_real *un = ej_set_field(set, "rb_n"), *u0 = ej_set_field(set, "rb_n0"), *depth = ej_set_field(set, "rb_depth");
+  EJ_ENSURE(x && V && un && u0 && depth && nbr, EJ_ERR_INTERNAL, "rigid_body: normal fields or list missing");
+  const ej_real sp = ej_set_spacing_min(set), r15 = 1.5 * sp;
+  int cmax = 0;
+  for (ej_idx i = 0; i < n; ++i) {
+    for (ej_off q = nbr->off[i]; q < nbr->off[i + 1]; ++q) {
+      const ej_idx j = nbr->idx[q];
+      ej_real d2 = 0;
+      for (int k = 0; k < 3; ++k) d2 += (x[3 * j + k] - x[3 * i + k]) * (x[3 * j + k] - x[3 * i + k]);
+      cnt[i] += d2 < r15 * r15;
+    }
+    cmax = cnt[i] > cmax ? cnt[i] : cmax;
+  }
+  s->n_surface = 0;
+  for (ej_idx i = 0; i < n; ++i) {
+    dist[i] = INFINITY, src[i] = -1;
+    if (cnt[i] >= cmax) continue;
+    ej_real G[3] = {0, 0, 0};
+    for (ej_off q = nbr->off[i]; q < nbr->off[i + 1]; ++q) {
+      const ej_idx j = nbr->idx[q];
+      ej_real d[3], r2 = 0;
+      for (int k = 0; k < 3; ++k) d[k] = x[3 * i + k] - x[3 * j + k], r2 += d[k] * d[k];
+      const ej_real r = sqrt(r2);
+      if (!(r > 0) || r >= 2 * sp) continue;
+      const ej_real f = V[j] * rb_spline_dq(r / sp) / r; /* grad_i W = W'(q)/s d/r, up to 1/s */
+      for (int k = 0; k < 3; ++k) G[k] += f * d[k];
+    }
+    const ej_real g = sqrt(G[0] * G[0] + G[1] * G[1] + G[2] * G[2]);
+    if (!(g > 0)) continue; /* a symmetric surface point (a lone point, a thin line): no normal */
+    for (int k = 0; k < 3; ++k) nw[3 * i + k] = -G[k] / g;
+    dist[i] = 0, src[i] = i;
+    s->n_surface++;
+  }
+  EJ_ENSURE(s->n_surface > 0, EJ_ERR_INPUT,
+            "rigid_body: set '%s' has no surface point with a normal (normals: true needs a body with an inside)",
+            ej_set_name(set));
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (ej_idx i = 0; i < n; ++i)
+      for (ej_off q = nbr->off[i]; q < nbr->off[i + 1]; ++q) {
+        const ej_idx j = nbr->idx[q];
+        if (j >= n || src[j] < 0) continue; /* owned points only: an image's source is owned */
+        ej_real d2 = 0;
+        for (int k = 0; k < 3; ++k) d2 += (x[3 * j + k] - x[3 * i + k]) * (x[3 * j + k] - x[3 * i + k]);
+        const ej_real dd = dist[j] + sqrt(d2);
+        if (dd < dist[i]) dist[i] = dd, src[i] = src[j], changed = true;
+      }
+  }
+  ej_real R[9];
+  rb_quat_m3(R, s->q);
+  for (ej_idx i = 0; i < n; ++i) {
+    EJ_ENSURE(src[i] >= 0, EJ_ERR_INPUT,
+              "rigid_body: point %ld of set '%s' is not connected to the body's surface (normals: true)", (long)i,
+              ej_set_name(set));
+    const ej_real *w = &nw[3 * src[i]];
+    depth[i] = dist[i];
+    for (int k = 0; k < 3; ++k) un[3 * i + k] = w[k];
+    for (int k = 0; k < 3; ++k) u0[3 * i + k] = R[k] * w[0] + R[3 + k] * w[1] + R[6 + k] * w[2]; /* R^T w */
+  }
+  return EJ_OK;
+}
+
+static ej_err rb_normals(rb_state *s, ej_set *set, const ej_nbr *nbr)
+{
+  const size_t n = (size_t)ej_set_count(set);
+  int *cnt = ej_calloc(n, sizeof *cnt);
+  ej_idx *src = ej_calloc(n, sizeof *src);
+  ej_real *dist = ej_calloc(n, sizeof *dist), *nw = ej_calloc(3 * n, sizeof *nw);
+  const ej_err rc = cnt && src && dist && nw ? rb_normals_work(s, set, nbr, cnt, src, dist, nw) : EJ_ERR_MEM;
+  ej_free(cnt), ej_free(src), ej_free(dist), ej_free(nw);
+  EJ_ENSURE(rc != EJ_ERR_MEM, EJ_ERR_MEM, "rigid_body: out of memory");
+  return rc;
+}
+
+/* Nothing per particle: the body's accelerations are set in post_step (see the top comment). With
+ * normals: true the first evaluation (and a restart from a checkpoint without them) computes the
+ * surface normals. */
 static ej_err rb_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass, ej_range r)
 {
-  (void)state, (void)set, (void)nbr, (void)pass, (void)r;
-  return EJ_OK;
+  (void)pass;
+  rb_state *s = state;
+  if (!s->cfg.normals || r.begin != 0 || ej_set_count(set) == 0) return EJ_OK;
+  const ej_real *u0 = ej_set_field(set, "rb_n0");
+  EJ_ENSURE(u0, EJ_ERR_INTERNAL, "rigid_body: field rb_n0 missing");
+  if (u0[0] != 0 || u0[1] != 0 || u0[2] != 0) return EJ_OK; /* known (a unit vector at every point) */
+  return rb_normals(s, set, nbr);
 }
 
 static ej_err rb_stable_dt(void *state, const ej_set *set, ej_range r, ej_real *dt)
@@ -301,6 +427,12 @@ static ej_err rb_post_step(void *state, ej_set *set, ej_range r)
   ej_real alpha[3];
   EJ_ENSURE(rb_solve_inertia(s, R, s->L, s->W) && rb_solve_inertia(s, R, T, alpha), EJ_ERR_NUMERIC,
             "rigid_body: singular inertia tensor");
+  if (s->cfg.normals) {
+    ej_real *un = ej_set_field(set, "rb_n");
+    const ej_real *u0 = ej_set_field(set, "rb_n0");
+    EJ_ENSURE(un && u0, EJ_ERR_INTERNAL, "rigid_body: normal fields missing");
+    for (ej_idx i = 0; i < n; ++i) ej_m3_apply(&un[3 * i], R, &u0[3 * i]);
+  }
   ej_real zmin = INFINITY, err = 0;
   const int zc = s->dim - 1; /* "down" is -y in 2D, -z in 3D (gravity's usual axis) */
   for (ej_idx i = 0; i < n; ++i) {
