@@ -7,6 +7,7 @@
   dist15    kernel_contact distance 1.5 spacings instead of 1.0 (does it pass through soil nodes?)
   stab0     rkpm pairwise stabilisation 0 instead of its default 0.1 (numerical dissipation, "hourglass")
   fine      soil spacing 0.125 m instead of 0.25 m
+  X_nbody   variant X with kernel_contact normal: body (rigid_body normals: true: the projectile's level set)
   q3d       3D quarter model (symmetry x = 0, y = 0), soil 0.25 m (as the 2D base), projectile 0.1 m
             (a real cylinder, rotation and lateral translation locked), block 3 x 3 x 8 m (quarter of
             6 x 6 x 8 m; 4608 soil nodes)
@@ -37,6 +38,11 @@ def scene_variant(v, t_end, every, out):
         ANG = int(ang)
     s, sp = 0.25, 0.1
     base_kw = dict(out=out, every=every)
+    if v.endswith("_nbody"):  # the same variant with kernel_contact normal: body (the projectile's level set)
+        txt = scene_variant(v[: -len("_nbody")] + (f"@{ANG}" if ANG != 90 else ""), t_end, every, out)
+        old_m, old_c = "    method: rigid_body\n", "mu: 0.1"
+        assert old_m in txt and old_c in txt
+        return txt.replace(old_m, old_m + "    normals: true\n").replace(old_c, old_c + ", normal: body", 1)
     if v == "base":
         txt = check.scene(ANG, s, sp, t_end, **base_kw)
     elif v == "nodamage":

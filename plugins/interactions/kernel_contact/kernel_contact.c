@@ -151,21 +151,30 @@ static inline ej_real kc_k(const kc_config *cfg, int dim, ej_real rho, ej_real c
  * and it grows with the depth a point has reached inside the body, which its points all push out
  * through the nearest surface (their normals agree), where the pair directions of the pair form
  * cancel and let it through. The force on p is -dU/dx_p = -k g psi n - 2 k g^2 (1 - r^2/delta^2) /
- * delta^2 d (with n held: exact for a body that translates; its turning is not differentiated);
- * damping and friction act as in the pair form. Every factor is symmetric and every vector
- * antisymmetric bitwise, so momentum is conserved as in the pair form. */
-static ej_err kc_compute_body(kc_state *s, ej_set *self, ej_set *other, const ej_nbr *nbr, ej_range r)
+ * delta^2 d (with n held: exact for a body that translates; its turning is not differentiated).
+ * Per point of the other body, the weights psi of a flat face of the body sum to about S = int psi
+ * dA / s_b^(dim-1) = (16/15) delta / s_b (2D), (pi/3) (delta / s_b)^2 (3D): the pair stiffness is
+ * divided by it (at least 1), so that a point resting on a face feels about k, as one head-on pair
+ * of the pair form does, and the pair time step holds. The pair form is the same loop with n =
+ * d / r, g = delta - r, psi = 1, no radial term and S = 1 (the same arithmetic as before the body
+ * form: multiplications by 1 and additions of 0 are exact). Damping and friction act along n in both. */
+static ej_err kc_compute(void *state, ej_set *self, ej_set *other, const ej_nbr *nbr, int pass, ej_range r)
 {
-  const bool primary = self == s->a, self_body = self == s->body;
+  (void)pass;
+  kc_state *s = state;
+  const bool primary = self == s->a, body = s->body != NULL, self_body = self == s->body;
+  EJ_ENSURE(nbr && nbr->n_rows >= r.end, EJ_ERR_INTERNAL, "kernel_contact: list has %d rows, range ends at %d",
+            nbr ? (int)nbr->n_rows : -1, (int)r.end);
+  EJ_ENSURE(!primary || ej_set_count(self) == s->n_a, EJ_ERR_INTERNAL, "kernel_contact: set '%s' changed size",
+            ej_set_name(self));
   const ej_real *xi = ej_set_field(self, "x"), *vi = ej_set_field(self, "v"), *mi = ej_set_field(self, "m");
   const ej_real *V0i = ej_set_field(self, "vol0"), *rhoi = ej_set_field(self, "rho"), *ci = ej_set_field(self, "c");
   const ej_real *xj = ej_set_field(other, "x"), *vj = ej_set_field(other, "v"), *mj = ej_set_field(other, "m");
   const ej_real *V0j = ej_set_field(other, "vol0"), *rhoj = ej_set_field(other, "rho"), *cj = ej_set_field(other, "c");
-  const ej_real *un = ej_set_field(self_body ? self : other, "rb_n");
-  const ej_real *dep = ej_set_field(self_body ? self : other, "rb_depth");
+  const ej_real *un = body ? ej_set_field(s->body, "rb_n") : NULL, *dep = body ? ej_set_field(s->body, "rb_depth") : NULL;
   ej_real *acc = ej_set_field(self, "a");
-  EJ_ENSURE(xi && vi && mi && V0i && xj && vj && mj && V0j && acc && un && dep, EJ_ERR_INTERNAL,
-            "kernel_contact: fields missing");
+  EJ_ENSURE(xi && vi && mi && V0i && xj && vj && mj && V0j && acc, EJ_ERR_INTERNAL, "kernel_contact: base fields missing");
+  EJ_ENSURE(!body || (un && dep), EJ_ERR_INTERNAL, "kernel_contact: the body's rb_n or rb_depth is missing");
   const kc_config *cfg = &s->cfg;
   const bool own_mod = cfg->modulus > 0;
   EJ_ENSURE(own_mod || (rhoi && ci && rhoj && cj), EJ_ERR_INTERNAL, "kernel_contact: rho or c missing");
@@ -180,24 +189,25 @@ static ej_err kc_compute_body(kc_state *s, ej_set *self, ej_set *other, const ej
       const ej_idx j = nbr->idx[q];
       const ej_real hj = kc_root(dim, V0j[j]);
       const ej_real delta = cfg->distance * (0.5 * (hi + hj));
-      ej_real n[3], d[3];
-      for (int k = 0; k < 3; ++k) {
-        n[k] = self_body ? un[3 * i + k] : -un[3 * j + k];
-        d[k] = xj[3 * j + k] - xi[3 * i + k];
+      ej_real d[3], n[3];
+      for (int k = 0; k < 3; ++k) d[k] = xj[3 * j + k] - xi[3 * i + k];
+      const ej_real r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      if (r2 >= delta * delta || !(r2 > 0)) continue;
+      ej_real g, psi = 1, rad = 0, S = 1;
+      if (body) {
+        for (int k = 0; k < 3; ++k) n[k] = self_body ? un[3 * i + k] : -un[3 * j + k];
+        g = delta - (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) + dep[self_body ? i : j];
+        if (!(g > 0)) continue;
+        const ej_real om = 1 - r2 / (delta * delta), rb = delta / (self_body ? hi : hj);
+        psi = om * om;
+        S = dim == 3 ? 1.0471975511965976 /* pi/3 */ * rb * rb : dim == 2 ? (16.0 / 15.0) * rb : 1.0;
+        rad = 2.0 * om / (delta * delta); /* times k g^2 below: the radial term of -grad U */
+      } else {
+        const ej_real rr = sqrt(r2);
+        for (int k = 0; k < 3; ++k) n[k] = d[k] / rr;
+        g = delta - rr;
       }
-      const ej_real dn = d[0] * n[0] + d[1] * n[1] + d[2] * n[2];
-      const ej_real g = delta - dn + dep[self_body ? i : j];
-      if (!(g > 0)) continue;
-      const ej_real q2 = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) / (delta * delta);
-      if (!(q2 < 1)) continue;
-      const ej_real om = 1 - q2, psi = om * om;
       const ej_real kj = kc_k(cfg, dim, own_mod ? 0 : rhoj[j], own_mod ? 0 : cj[j], hj);
-      /* per point of the other body, the weights psi of a flat face of the body sum to about
-       * S = int psi dA / s_b^(dim-1) = (16/15) delta / s_b (2D), (pi/3) (delta / s_b)^2 (3D): the
-       * pair stiffness is divided by it (at least 1), so that a point resting on a face feels
-       * about k, as one head-on pair of the pair form does, and the pair time step holds */
-      const ej_real rb = cfg->distance * 0.5 * (hi + hj) / (self_body ? hi : hj);
-      const ej_real S = dim == 3 ? 1.0471975511965976 * rb * rb /* pi/3 */ : dim == 2 ? (16.0 / 15.0) * rb : 1.0;
       const ej_real kij = 2.0 * (ki * kj) / (ki + kj) / (S > 1 ? S : 1);
       const ej_real mij = (mi[i] * mj[j]) / (mi[i] + mj[j]);
       ej_real vr[3];
@@ -207,7 +217,7 @@ static ej_err kc_compute_body(kc_state *s, ej_set *self, ej_set *other, const ej
       const ej_real Nel = kij * g * psi;
       ej_real N = Nel - cd * vn;
       if (N < 0) N = 0;
-      const ej_real lat = 2.0 * kij * g * g * om / (delta * delta);
+      const ej_real lat = rad * kij * g * g;
       ej_real vt[3];
       for (int k = 0; k < 3; ++k) vt[k] = vr[k] - vn * n[k];
       const ej_real vt_norm = sqrt(vt[0] * vt[0] + vt[1] * vt[1] + vt[2] * vt[2]);
@@ -221,82 +231,6 @@ static ej_err kc_compute_body(kc_state *s, ej_set *self, ej_set *other, const ej
       if (primary) {
         drate += T * vt_norm + (Nel - N) * vn;
         upot += 0.5 * kij * g * g * psi;
-        ++np;
-      }
-    }
-    const ej_real inv_m = 1.0 / mi[i];
-    for (int k = 0; k < dim; ++k) acc[3 * i + k] += f[k] * inv_m;
-    if (primary) {
-      s->drate[i] = drate;
-      s->upot[i] = upot;
-      s->npair[i] = np;
-      for (int k = 0; k < 3; ++k) s->force[3 * i + k] = f[k];
-    }
-  }
-  return EJ_OK;
-}
-
-static ej_err kc_compute(void *state, ej_set *self, ej_set *other, const ej_nbr *nbr, int pass, ej_range r)
-{
-  (void)pass;
-  kc_state *s = state;
-  const bool primary = self == s->a;
-  EJ_ENSURE(nbr && nbr->n_rows >= r.end, EJ_ERR_INTERNAL, "kernel_contact: list has %d rows, range ends at %d",
-            nbr ? (int)nbr->n_rows : -1, (int)r.end);
-  EJ_ENSURE(!primary || ej_set_count(self) == s->n_a, EJ_ERR_INTERNAL, "kernel_contact: set '%s' changed size",
-            ej_set_name(self));
-  const ej_real *xi = ej_set_field(self, "x"), *vi = ej_set_field(self, "v"), *mi = ej_set_field(self, "m");
-  const ej_real *V0i = ej_set_field(self, "vol0"), *rhoi = ej_set_field(self, "rho"), *ci = ej_set_field(self, "c");
-  const ej_real *xj = ej_set_field(other, "x"), *vj = ej_set_field(other, "v"), *mj = ej_set_field(other, "m");
-  const ej_real *V0j = ej_set_field(other, "vol0"), *rhoj = ej_set_field(other, "rho"), *cj = ej_set_field(other, "c");
-  ej_real *acc = ej_set_field(self, "a");
-  EJ_ENSURE(xi && vi && mi && V0i && xj && vj && mj && V0j && acc, EJ_ERR_INTERNAL, "kernel_contact: base fields missing");
-  const kc_config *cfg = &s->cfg;
-  const bool own_mod = cfg->modulus > 0;
-  EJ_ENSURE(own_mod || (rhoi && ci && rhoj && cj), EJ_ERR_INTERNAL, "kernel_contact: rho or c missing");
-  const int dim = s->dim;
-  const ej_real dt = ej_set_dt(self);
-  if (s->body) return kc_compute_body(s, self, other, nbr, r);
-  for (ej_idx i = r.begin; i < r.end; ++i) {
-    const ej_real hi = kc_root(dim, V0i[i]);
-    const ej_real ki = kc_k(cfg, dim, own_mod ? 0 : rhoi[i], own_mod ? 0 : ci[i], hi);
-    ej_real f[3] = {0, 0, 0}, drate = 0, upot = 0;
-    int32_t np = 0;
-    for (ej_off q = nbr->off[i]; q < nbr->off[i + 1]; ++q) {
-      const ej_idx j = nbr->idx[q];
-      const ej_real hj = kc_root(dim, V0j[j]);
-      const ej_real delta = cfg->distance * (0.5 * (hi + hj));
-      ej_real d[3];
-      for (int k = 0; k < 3; ++k) d[k] = xj[3 * j + k] - xi[3 * i + k];
-      const ej_real r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-      if (r2 >= delta * delta || !(r2 > 0)) continue;
-      const ej_real rr = sqrt(r2);
-      ej_real n[3];
-      for (int k = 0; k < 3; ++k) n[k] = d[k] / rr;
-      const ej_real kj = kc_k(cfg, dim, own_mod ? 0 : rhoj[j], own_mod ? 0 : cj[j], hj);
-      const ej_real kij = 2.0 * (ki * kj) / (ki + kj);
-      const ej_real mij = (mi[i] * mj[j]) / (mi[i] + mj[j]);
-      const ej_real g = delta - rr;
-      ej_real vr[3];
-      for (int k = 0; k < 3; ++k) vr[k] = vj[3 * j + k] - vi[3 * i + k];
-      const ej_real vn = vr[0] * n[0] + vr[1] * n[1] + vr[2] * n[2];
-      const ej_real cd = 2.0 * cfg->damping * sqrt(kij * mij);
-      const ej_real Nel = kij * g;
-      ej_real N = Nel - cd * vn;
-      if (N < 0) N = 0;
-      ej_real vt[3];
-      for (int k = 0; k < 3; ++k) vt[k] = vr[k] - vn * n[k];
-      const ej_real vt_norm = sqrt(vt[0] * vt[0] + vt[1] * vt[1] + vt[2] * vt[2]);
-      ej_real T = 0;
-      if (cfg->mu > 0 && vt_norm > 0 && dt > 0) {
-        const ej_real stick = cfg->stick * mij * vt_norm / dt, slide = cfg->mu * N;
-        T = stick < slide ? stick : slide;
-      }
-      const ej_real tf = vt_norm > 0 ? T / vt_norm : 0;
-      for (int k = 0; k < 3; ++k) f[k] += -N * n[k] + tf * vt[k];
-      if (primary) {
-        drate += T * vt_norm + (Nel - N) * vn;
-        upot += 0.5 * kij * g * g;
         ++np;
       }
     }
