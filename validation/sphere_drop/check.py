@@ -3,8 +3,9 @@
 reference README §7): a 19 mm steel ball hits a bed of glass beads at sqrt(2 g h), h = 100, 300,
 500 mm. Quarter model (symmetry planes x = 0, y = 0), beads as semi-Lagrangian RKPM with
 dp_damage (damage off = cohesionless Drucker-Prager), the ball as a `rigid_body` set (translation
-locked in x and y, rotation locked: the quarter model's symmetry), kernel_contact between them,
-gravity. The bed uses rkpm's defaults (MSNNI, msnni_stress material, msnni_part deviatoric) unless
+locked in x and y, rotation locked: the quarter model's symmetry), kernel_contact between them
+with the ball's level-set normal (`normal: body`, the default since 2026-12-01; --contact-normal pair
+gives the point-to-point direction of the earlier runs), gravity. The bed uses rkpm's defaults (MSNNI, msnni_stress material, msnni_part deviatoric) unless
 --integration / --msnni-stress / --msnni-part say otherwise, except the pairwise viscous
 `stabilization`, 0 here (since 2026-11-29; --stabilization sets it): across a velocity jump it
 transmits a traction 0.051 stabilization rho c dv at any spacing, 20 times the beads' shear strength
@@ -174,8 +175,9 @@ def main():
                     help="rkpm pairwise viscous `stabilization` of the bed (default 0; the method's own default is 0.1)")
     ap.add_argument("--msnni-part", default=None, choices=["full", "deviatoric"],
                     help="rkpm msnni_part (sub-box stabilisation on the full or deviatoric strain difference)")
-    ap.add_argument("--contact-normal", default="pair", choices=["pair", "body"],
-                    help="kernel_contact `normal` (body: the ball's level-set normal, rigid_body normals: true)")
+    ap.add_argument("--contact-normal", default="body", choices=["pair", "body"],
+                    help="kernel_contact `normal` (body, the default since 2026-12-01: the ball's level-set normal, "
+                         "rigid_body normals: true; pair: the point-to-point direction, the runs before)")
     ap.add_argument("--contact-damping", type=float, default=0.0,
                     help="kernel_contact `damping` between ball and bed (fraction of critical per pair; default 0)")
     ap.add_argument("--no-figures", action="store_true", help="diagnostic runs: write no figures")

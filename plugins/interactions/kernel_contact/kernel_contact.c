@@ -213,7 +213,7 @@ static ej_err kc_compute(void *state, ej_set *self, ej_set *other, const ej_nbr 
       ej_real vr[3];
       for (int k = 0; k < 3; ++k) vr[k] = vj[3 * j + k] - vi[3 * i + k];
       const ej_real vn = vr[0] * n[0] + vr[1] * n[1] + vr[2] * n[2];
-      const ej_real cd = 2.0 * cfg->damping * sqrt(kij * mij) * psi;
+      const ej_real cd = 2.0 * cfg->damping * sqrt(kij * mij);
       const ej_real Nel = kij * g * psi;
       ej_real N = Nel - cd * vn;
       if (N < 0) N = 0;
