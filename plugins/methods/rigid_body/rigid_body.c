@@ -64,7 +64,6 @@ typedef struct rb_state {
   ej_real lock_t[3], lock_r[3]; /* 1 free, 0 locked */
   ej_real z_min, rigid_err;
   int64_t steps;
-  bool ready; /* M and I0 known (setup, or rebuilt from rb_r0 after a restart) */
   int64_t n_surface; /* points found on the surface (normals: true) */
 } rb_state;
 
@@ -230,7 +229,6 @@ static ej_err rb_setup(void *state, ej_set *set)
             ej_set_name(set));
   for (int d = 0; d < 3; ++d) s->W[d] += s->cfg.omega[d] * s->lock_r[d];
   ej_m3_apply(s->L, s->I0, s->W);
-  s->ready = true;
   /* Initial velocities projected on the rigid motion (momentum and angular momentum kept). */
   for (ej_idx i = 0; i < n; ++i) {
     ej_real wr[3];
@@ -344,7 +342,7 @@ static ej_err rb_normals(rb_state *s, ej_set *set, const ej_nbr *nbr)
 }
 
 /* Nothing per particle: the body's accelerations are set in post_step (see the top comment). With
- * normals: true the first evaluation (and a restart from a checkpoint without them) computes the
+ * normals: true the first evaluation computes the
  * surface normals. */
 static ej_err rb_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass, ej_range r)
 {
@@ -373,20 +371,6 @@ static ej_err rb_post_step(void *state, ej_set *set, ej_range r)
   ej_real *x = ej_set_field(set, "x"), *v = ej_set_field(set, "v"), *a = ej_set_field(set, "a");
   const ej_real *m = ej_set_field(set, "m"), *r0 = ej_set_field(set, "rb_r0");
   EJ_ENSURE(x && v && a && m && r0, EJ_ERR_INTERNAL, "rigid_body: fields missing");
-  if (!s->ready) { /* restart: setup was not called; mass and inertia from the checkpointed r0 */
-    s->M = 0;
-    ej_m3_zero(s->I0);
-    for (ej_idx i = 0; i < n; ++i) {
-      const ej_real *ri = &r0[3 * i], rr = ri[0] * ri[0] + ri[1] * ri[1] + ri[2] * ri[2];
-      s->M += m[i];
-      for (int p = 0; p < 3; ++p)
-        for (int q = 0; q < 3; ++q) s->I0[3 * p + q] += m[i] * ((p == q ? rr : 0) - ri[p] * ri[q]);
-    }
-    for (int d = 0; d < 3; ++d) s->X[d] = 0;
-    for (ej_idx i = 0; i < n; ++i)
-      for (int d = 0; d < 3; ++d) s->X[d] += m[i] * x[3 * i + d] / s->M;
-    s->ready = true;
-  }
   const ej_real M = s->M;
   ej_real X[3] = {0, 0, 0}, P[3] = {0, 0, 0}, F[3] = {0, 0, 0}, Lh[3] = {0, 0, 0}, T[3] = {0, 0, 0};
   for (ej_idx i = 0; i < n; ++i)
@@ -481,31 +465,24 @@ static ej_err rb_counters(void *state, ej_counter *out, int max, int *n)
   return EJ_OK;
 }
 
-/* Checkpointed state (ABI 1.8): the orientation, which the particle positions alone give only up
- * to round-off and which the position reset of post_step uses every step (a restart from the
- * identity turned the body back to its initial orientation), the centre (kept on locked axes)
- * and the lowest-point series. */
-enum { RB_NSTATE = 9 };
-
+/* Checkpointed state (ABI 1.8): the orientation, which the position reset of post_step uses every
+ * step and which the particle positions alone give only up to round-off (a restart from the
+ * identity turned the body back to its initial orientation). The rest is derivable: setup gives
+ * the mass, inertia and the centre on locked axes, post_step the rest from the particles. */
 static ej_err rb_save_state(const void *state, ej_real *buf, int max, int *n)
 {
   const rb_state *s = state;
-  EJ_ENSURE(max >= RB_NSTATE, EJ_ERR_INTERNAL, "rigid_body: %d state slots, needs %d", max, RB_NSTATE);
-  for (int k = 0; k < 4; ++k) buf[k] = s->q[k];
-  for (int k = 0; k < 3; ++k) buf[4 + k] = s->X[k];
-  buf[7] = (ej_real)s->steps, buf[8] = s->z_min;
-  *n = RB_NSTATE;
+  EJ_ENSURE(max >= 4, EJ_ERR_INTERNAL, "rigid_body: %d state slots, needs 4", max);
+  memcpy(buf, s->q, sizeof s->q);
+  *n = 4;
   return EJ_OK;
 }
 
 static ej_err rb_load_state(void *state, const ej_real *buf, int n)
 {
   rb_state *s = state;
-  EJ_ENSURE(n == RB_NSTATE, EJ_ERR_INPUT, "rigid_body: %d state values in the checkpoint, expected %d", n,
-            RB_NSTATE);
-  for (int k = 0; k < 4; ++k) s->q[k] = buf[k];
-  for (int k = 0; k < 3; ++k) s->X[k] = buf[4 + k];
-  s->steps = (int64_t)buf[7], s->z_min = buf[8];
+  EJ_ENSURE(n == 4, EJ_ERR_INPUT, "rigid_body: %d state values in the checkpoint, expected 4", n);
+  memcpy(s->q, buf, sizeof s->q);
   return EJ_OK;
 }
 
