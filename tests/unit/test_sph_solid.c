@@ -409,6 +409,77 @@ START_TEST(test_balsara_switch)
 }
 END_TEST
 
+/* The artificial viscosity across a velocity jump (sph README "Viscosity in a shear band"): a
+ * stress-free 3D block, periodic in x and y, whose upper half moves at +dv/2 and lower half at
+ * -dv/2 along x. After one tiny step the x force the lower half exerts on the upper half through
+ * the Monaghan viscosity (run with alpha minus run with alpha 0; beta 0) is a traction
+ * k * alpha * rho c dv on the plane z = 0 with k independent of the spacing: in a shear band the
+ * velocity gradient grows as 1/h while the term's length scale shrinks as h, so the drag does not
+ * fade under refinement (pure shear has approaching pairs). The same test as rkpm's
+ * `stabilization` (test_rkpm.c test_stabilization_traction). With `visc_switch: balsara` the
+ * traction vanishes (div v = 0 at a pure shear jump). Returns k; *k_balsara the switched one. */
+static ej_err sv_open(vscene *c, const char *fmt, ...)
+{
+  const ej_plugin_info *pl[] = {ej_plugin_sph_info(), ej_plugin_elastic_info()};
+  va_list ap;
+  va_start(ap, fmt);
+  ej_err rc = vscene_open(c, "sphvisc", pl, 2, fmt, ap);
+  va_end(ap);
+  return rc;
+}
+
+static double visc_traction_k(double spacing, double *k_balsara)
+{
+  double fx[3] = {0, 0, 0}, c0 = 0;
+  const double dv = 1e-3, dt = 1e-6, alpha = 1.0;
+  for (int run = 0; run < 3; ++run) {
+    vscene c;
+    ej_buf b = {0};
+    ej_buf_printf(&b,
+                  "ejecta: 1\ndimension: 3\ntime: {end: 1, dt: %g, max_steps: 1}\n"
+                  "output: {file: st.h5, every: 1, fields: [v]}\n"
+                  "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
+                  "sets:\n  block:\n    method: sph\n    strength: true\n    material: m\n"
+                  "    alpha: %g\n    beta: 0\n%s"
+                  "    shape: {box: {min: [0, 0, -0.5], max: [1, 1, 0.5]}}\n    spacing: %.17g\n"
+                  "    velocity: [%g, 0, 0]\n    initial:\n"
+                  "      - {region: {half_space: {point: [0, 0, 0], normal: [0, 0, -1]}}, velocity: [%g, 0, 0]}\n"
+                  "boundaries:\n  - periodic: {axis: x, min: 0, max: 1}\n  - periodic: {axis: y, min: 0, max: 1}\n",
+                  dt, run ? alpha : 0.0, run == 2 ? "    visc_switch: balsara\n" : "", spacing, -0.5 * dv,
+                  0.5 * dv);
+    ej_err rc = sv_open(&c, "%s", b.data);
+    ej_buf_free(&b);
+    if (rc != EJ_OK) ej_error_report("test");
+    ck_assert_int_eq(rc, EJ_OK);
+    vrun_run(&c.r);
+    const ej_set *set = c.r.sim->sets[0];
+    const ej_real *x = ej_set_field(set, "x"), *v = ej_set_field(set, "v"), *m = ej_set_field(set, "m"),
+                  *cs = ej_set_field(set, "c");
+    for (ej_idx i = 0; i < ej_set_count(set); ++i)
+      if (x[3 * i + 2] > 0) fx[run] += m[i] * (v[3 * i] - 0.5 * dv) / dt;
+    c0 = cs[0];
+    vscene_free(&c);
+  }
+  /* face 1 x 1: the traction is the force; rho = 1 */
+  const double k = -(fx[1] - fx[0]) / (alpha * c0 * dv);
+  *k_balsara = -(fx[2] - fx[0]) / (alpha * c0 * dv);
+  fprintf(stderr, "sph viscosity across a velocity jump, spacing %g: force without %.3e, with %.3e (balsara %.3e), "
+          "k = %.4f, with the switch %.2e\n", spacing, fx[0], fx[1], fx[2], k, *k_balsara);
+  ck_assert_msg(fabs(fx[0]) < 1e-3 * fabs(fx[1]), "without viscosity the jump is not stress-free: %g vs %g", fx[0],
+                fx[1]);
+  return k;
+}
+
+START_TEST(test_visc_shear_traction)
+{
+  double kb8, kb16;
+  const double k8 = visc_traction_k(0.125, &kb8), k16 = visc_traction_k(0.0625, &kb16);
+  ck_assert_msg(k8 > 0.0 && k16 > 0.0, "no viscous drag across the jump: k = %g, %g", k8, k16);
+  ck_assert_msg(fabs(k16 / k8 - 1) < 0.03, "k depends on the spacing: %g vs %g", k8, k16);
+  ck_assert_msg(fabs(kb8) < 1e-6 * k8 && fabs(kb16) < 1e-6 * k16, "balsara: k = %g, %g", kb8, kb16);
+}
+END_TEST
+
 /* strength: true needs a strength model, and a strength model needs strength: true. */
 START_TEST(test_config)
 {
@@ -438,6 +509,7 @@ int main(void)
   tcase_add_test(tm, test_art_stress_tension_only);
   tcase_add_test(tm, test_config);
   tcase_add_test(tm, test_balsara_switch);
+  tcase_add_test(tm, test_visc_shear_traction);
   suite_add_tcase(s, tm);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
