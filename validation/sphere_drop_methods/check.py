@@ -4,7 +4,7 @@
 dp_damage beads phi 24 deg, c 0, psi 0, damage off, E 204.86 MPa, nu 0.3227, rho 1500,
 kernel_contact mu 0.3, gravity, fixed-node container walls) with the bed as `rkpm` (msnni, the
 method's defaults but `stabilization: 0`, as validation/sphere_drop), `tlpd` (the method's defaults: horizon 3, zhu_zhao hourglass) and `sph`
-(strength: true, the method's defaults). Same material, same contact, same walls (fixed bed
+(strength: true, the method's defaults but alpha = beta = 0 since 2026-12-02: --sph-viscosity). Same material, same contact, same walls (fixed bed
 particles in the bottom layer and the two outer side layers, as the RKPM scene), same ball and
 drop heights. Final depth delta (ball's lowest point below the initial surface, maximum over the
 run) against Seguin et al. 2008 delta/d = 1.4, 2.4, 2.85 (+-0.2) (003 Table 12), CPU time of
@@ -67,7 +67,14 @@ def main():
     ap.add_argument("--ball-spacing", type=float, default=D / 8)
     ap.add_argument("--heights", default=None, help="drop heights in m (default 0.3; with --full 0.1,0.3,0.5)")
     ap.add_argument("--full", action="store_true", help="all three heights")
-    ap.add_argument("--t-end", type=float, default=0.06)  # the RKPM ball (stabilization 0) stops by ~50 ms
+    ap.add_argument("--t-end", type=float, default=None,
+                    help="end time [s]; default per method: rkpm and tlpd 60 ms (the RKPM ball stops by ~50 ms), "
+                         "sph 120 ms (without the artificial viscosity its ball stops by ~100 ms)")
+    ap.add_argument("--sph-viscosity", default="off", choices=["off", "default"],
+                    help="the SPH bed's Monaghan viscosity: off (alpha = beta = 0, the default since 2026-12-02: "
+                         "in a shear band it is a drag 0.056 alpha rho c dv at any spacing, about 300 times the "
+                         "beads' frictional strength at alpha = 1; sph README 'Viscosity in a shear band') or "
+                         "default (the method's alpha 1, beta 2: the runs before)")
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--reuse", action="store_true")
     ap.add_argument("--width", type=float, default=0.042,
@@ -84,17 +91,22 @@ def main():
     a.heights = a.heights or ("0.1,0.3,0.5" if a.full else "0.3")
     spacings = [float(x) for x in a.spacings.split(",")] if a.spacings else [a.spacing]
     extra = [kv.strip() for kv in a.bed_extra.split(";") if kv.strip()]
+    if a.sph_viscosity == "off" and any(kv.split(":")[0].strip() in ("alpha", "beta") for kv in extra):
+        ap.error("--bed-extra sets alpha/beta: give --sph-viscosity default with it")
     rows, ok = [], True
     for method, h, s in [(m, float(x), sp) for m in a.methods.split(",") for x in a.heights.split(",")
                          for sp in spacings]:
-        name = (f"drop_{method}_h{int(round(h * 1000))}_s{s * 1000:g}mm_t{a.t_end * 1000:g}ms"
+        t_end = a.t_end if a.t_end is not None else (0.12 if method == "sph" else 0.06)
+        # the SPH bed without the viscosity: the same two set lines as --bed-extra 'alpha: 0; beta: 0' (and the same run name)
+        mx = extra + (["alpha: 0", "beta: 0"] if method == "sph" and a.sph_viscosity == "off" else [])
+        name = (f"drop_{method}_h{int(round(h * 1000))}_s{s * 1000:g}mm_t{t_end * 1000:g}ms"
                 + ("" if a.width == 0.042 else f"_w{a.width * 1000:g}mm")
-                + "".join("_" + kv.replace(":", "").replace(" ", "") for kv in extra)
+                + "".join("_" + kv.replace(":", "").replace(" ", "") for kv in mx)
                 + ("" if a.contact_normal == "pair" else "_nbody"))
         r0 = os.times()
         err_msg = None
         try:
-            path, wall = common.run(exe, scene(method, h, s, a.t_end, a.ball_spacing, width=a.width, extra=extra,
+            path, wall = common.run(exe, scene(method, h, s, t_end, a.ball_spacing, width=a.width, extra=mx,
                                                      contact_normal=a.contact_normal), name, a.out,
                                     threads=a.threads, reuse=a.reuse)
         except RuntimeError as ex:  # a method that stops (e.g. det F < 0) is reported, not hidden
@@ -123,7 +135,7 @@ def main():
         # stopped in its crater: slow at the end and its lowest point below the surface (a ball that
         # rebounded out of the bed, as on the TL-PD bed, is slow only near its apex)
         stopped = (abs(float(vz[-1])) < 0.05 * v0 and pen[-1] > 0 and err_msg is None
-                   and t[-1] >= a.t_end * (1 - 1e-9))
+                   and t[-1] >= t_end * (1 - 1e-9))
         exp = EXP.get(h)
         err = (delta / D - exp) / exp
         bal = float(np.max(np.abs(e["balance"]))) / (0.5 * float(b["mass"][0]) * v0 ** 2 + 1e-300)
