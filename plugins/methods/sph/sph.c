@@ -148,7 +148,9 @@ static const ej_param sph_params[] = {
     EJ_PARAM_BOOL(sph_config, variable_h, 1,
                   "Adapt h to the current density (true) or keep h = h_factor vol0^(1/dim)."),
     EJ_PARAM_REAL(sph_config, alpha, "1", 1.0, 0.0, 0.0, EJ_PF_HAS_MIN,
-                  "Linear (bulk) coefficient of the Monaghan artificial viscosity."),
+                  "Linear (bulk) coefficient of the Monaghan artificial viscosity. Across a shear band it "
+                  "drags with a traction of about 0.056 alpha rho c dv at any spacing: for slow granular flow "
+                  "without shocks use 0 (README \"Viscosity in a shear band\")."),
     EJ_PARAM_REAL(sph_config, beta, "1", 2.0, 0.0, 0.0, EJ_PF_HAS_MIN,
                   "Quadratic (von Neumann-Richtmyer) coefficient of the Monaghan viscosity."),
     EJ_PARAM_REAL(sph_config, eta, "1", 0.1, 0.0, 0.0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN,
