@@ -182,6 +182,9 @@ def main():
                     help="kernel_contact `damping` between ball and bed (fraction of critical per pair; default 0)")
     ap.add_argument("--no-figures", action="store_true", help="diagnostic runs: write no figures")
     ap.add_argument("--name-tag", default="", help="suffix for the run names (diagnostic runs)")
+    ap.add_argument("--earlier", default="",
+                    help="depths of the same scene from runs whose output is gone, drawn as open circles in the "
+                         "depth/d panel (not judged): 'h_m:delta_mm,...', e.g. 0.3:36.1 (README)")
     a = ap.parse_args()
     if a.full:
         a.container, a.t_end = "seguin", max(a.t_end, 0.08)
@@ -251,6 +254,10 @@ def main():
         Hd = [(r[0] + r[3]) / D for r in rows]
         ax[1].plot(Hd, [r[3] / D for r in rows], "o-", label=f"ejecta RKPM bed {s * 1000:g} mm ({'DP cone' if a.beads == 'dp' else 'Mohr-Coulomb, cap3'}; "
                    f"{a.width * 2000:.0f} x {a.depth * 1000:.0f} mm), rigid ball {a.ball_spacing * 1000:.3g} mm")
+        if a.earlier:
+            pts = [tuple(float(v) for v in p.split(":")) for p in a.earlier.split(",")]
+            ax[1].plot([(hh + dd / 1000) / D for hh, dd in pts], [dd / 1000 / D for hh, dd in pts], "o",
+                       mfc="none", color="C0", label="the same scene, earlier run (README)")
         ax[1].errorbar([6.1, 16.86, 27.7], [1.4, 2.4, 2.85], yerr=0.2, fmt="s", label="Seguin 2008")
         ax[1].plot([6.1, 16.86, 27.7], [0.83, 1.07, 1.38], "x", label="Chi et al. 2017 (Table 12)")
         hh = np.linspace(0.05, 0.55, 30)
