@@ -634,12 +634,7 @@ static double stab_traction_k(double spacing)
                   dt, run ? alpha : 0.0, spacing, -0.5 * dv, 0.5 * dv);
     vscene c;
     rk_run_text(&c, &b, 1);
-    const ej_set *set = c.r.sim->sets[0];
-    const ej_real *x = ej_set_field(set, "x"), *v = ej_set_field(set, "v"), *m = ej_set_field(set, "m"),
-                  *cs = ej_set_field(set, "c");
-    for (ej_idx i = 0; i < ej_set_count(set); ++i)
-      if (x[3 * i + 2] > 0) fx[run] += m[i] * (v[3 * i] - 0.5 * dv) / dt;
-    c0 = cs[0];
+    fx[run] = shear_jump_force_x(c.r.sim, dv, dt, &c0);
     vscene_free(&c);
   }
   /* box face 1 x 1: the traction is the force; rho = 1 */

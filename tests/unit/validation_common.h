@@ -172,6 +172,21 @@ static inline void vrun_cleanup(const char *dir, const char *const *names, int n
   rmdir(dir);
 }
 
+/* The shear-jump traction tests (test_rkpm.c test_stabilization_traction, test_sph_solid.c
+ * test_visc_shear_traction): a 3D block of set 0 whose upper half (z > 0) started at +dv/2 along x;
+ * after one step of dt, the x force on that half, sum m (v_x - dv/2) / dt. *c0 gets the sound speed
+ * of the first particle. */
+static inline double shear_jump_force_x(const ej_sim *sim, double dv, double dt, double *c0)
+{
+  const ej_set *set = sim->sets[0];
+  const ej_real *x = ej_set_field(set, "x"), *v = ej_set_field(set, "v"), *m = ej_set_field(set, "m");
+  double fx = 0;
+  for (ej_idx i = 0; i < ej_set_count(set); ++i)
+    if (x[3 * i + 2] > 0) fx += m[i] * (v[3 * i] - 0.5 * dv) / dt;
+  *c0 = ej_set_field(set, "c")[0];
+  return fx;
+}
+
 /* ------------------------------------------------------------------ smooth block velocity */
 
 /* The `initial:` entries of the free 0.5 m block of the rkpm/tlpd stability and restart tests: a
