@@ -4,7 +4,7 @@
 dp_damage beads phi 24 deg, c 0, psi 0, damage off, E 204.86 MPa, nu 0.3227, rho 1500,
 kernel_contact mu 0.3, gravity, fixed-node container walls) with the bed as `rkpm` (msnni, the
 method's defaults but `stabilization: 0`, as validation/sphere_drop), `tlpd` (the method's defaults: horizon 3, zhu_zhao hourglass) and `sph`
-(strength: true, the method's defaults but alpha = beta = 0 since 2026-12-02: --sph-viscosity). Same material, same contact, same walls (fixed bed
+(strength: true, the method's defaults but alpha = beta = 0 since 2026-12-01: --sph-viscosity). Same material, same contact, same walls (fixed bed
 particles in the bottom layer and the two outer side layers, as the RKPM scene), same ball and
 drop heights. Final depth delta (ball's lowest point below the initial surface, maximum over the
 run) against Seguin et al. 2008 delta/d = 1.4, 2.4, 2.85 (+-0.2) (003 Table 12), CPU time of
@@ -73,7 +73,7 @@ def main():
                     help="end time [s]; default per method: rkpm and tlpd 60 ms (the RKPM ball stops by ~50 ms), "
                          "sph 120 ms (without the artificial viscosity its ball stops by ~100 ms)")
     ap.add_argument("--sph-viscosity", default="off", choices=["off", "default"],
-                    help="the SPH bed's Monaghan viscosity: off (alpha = beta = 0, the default since 2026-12-02: "
+                    help="the SPH bed's Monaghan viscosity: off (alpha = beta = 0, the default since 2026-12-01: "
                          "in a shear band it is a drag 0.056 alpha rho c dv at any spacing, about 300 times the "
                          "beads' frictional strength at alpha = 1; sph README 'Viscosity in a shear band') or "
                          "default (the method's alpha 1, beta 2: the runs before)")
@@ -86,7 +86,7 @@ def main():
                          "(diagnostic runs, e.g. 'alpha: 0.1; beta: 0.2' for sph; never material parameters)")
     ap.add_argument("--name-tag", default="", help="suffix of the figure name (sphere_drop_methods<tag>.png)")
     ap.add_argument("--contact-normal", default="body", choices=["pair", "body"],
-                    help="kernel_contact `normal` between ball and bed (body, the default since 2026-12-02, as "
+                    help="kernel_contact `normal` between ball and bed (body, the default since 2026-12-01, as "
                          "validation/sphere_drop: the ball's level-set normal; pair: the runs before)")
     a = ap.parse_args()
     exe = common.ejecta_binary(a.build)
