@@ -629,6 +629,60 @@ START_TEST(test_summation_density)
 }
 END_TEST
 
+/* The zero-energy-mode bond viscosity across a velocity jump (ulpd README, limitations): a
+ * stress-free elastic 3D block, periodic in x and y, whose upper half moves at +dv/2 and lower half
+ * at -dv/2 along x. After one tiny step the x force on the upper half from `c_hg` (run with c_hg 0.1
+ * minus run with 0; the viscous pressure off in both) is a traction k c_hg rho c dv on the plane
+ * z = 0 with k independent of the spacing: the non-affine part of the relative velocity is largest
+ * across a shear jump, so the drag does not fade under refinement (the same test as sph's viscosity
+ * and rkpm's stabilisation). Returns k. */
+static ej_err uv_open(vscene *c, const char *fmt, ...)
+{
+  const ej_plugin_info *pl[] = {ej_plugin_ulpd_info(), ej_plugin_elastic_info()};
+  va_list ap;
+  va_start(ap, fmt);
+  ej_err rc = vscene_open(c, "ulpdvisc", pl, 2, fmt, ap);
+  va_end(ap);
+  return rc;
+}
+
+static double chg_traction_k(double spacing)
+{
+  double fx[2] = {0, 0}, c0 = 0;
+  const double dv = 1e-3, dt = 1e-6, chg = 0.1;
+  for (int run = 0; run < 2; ++run) {
+    vscene c;
+    ej_err rc = uv_open(&c,
+                        "ejecta: 1\ndimension: 3\ntime: {end: 1, dt: %g, max_steps: 1}\n"
+                        "output: {file: st.h5, every: 1, fields: [v]}\n"
+                        "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
+                        "sets:\n  block:\n    method: ulpd\n    material: m\n    c_hg: %g\n    C_q: 0\n    C_l: 0\n"
+                        "    shape: {box: {min: [0, 0, -1], max: [1, 1, 1]}}\n    spacing: %.17g\n"
+                        "    velocity: [%g, 0, 0]\n    initial:\n"
+                        "      - {region: {half_space: {point: [0, 0, 0], normal: [0, 0, -1]}}, velocity: [%g, 0, 0]}\n"
+                        "boundaries:\n  - periodic: {axis: x, min: 0, max: 1}\n  - periodic: {axis: y, min: 0, max: 1}\n",
+                        dt, run ? chg : 0.0, spacing, -0.5 * dv, 0.5 * dv);
+    if (rc != EJ_OK) ej_error_report("test");
+    ck_assert_int_eq(rc, EJ_OK);
+    vrun_run(&c.r);
+    fx[run] = shear_jump_force_x(c.r.sim, dv, dt, &c0);
+    vscene_free(&c);
+  }
+  const double k = -(fx[1] - fx[0]) / (chg * c0 * dv); /* face 1 x 1, rho = 1 */
+  fprintf(stderr, "ulpd c_hg across a velocity jump, spacing %g: force without %.3e, with %.3e, k = %.4f\n", spacing,
+          fx[0], fx[1], k);
+  ck_assert_msg(fabs(fx[0]) < 1e-3 * fabs(fx[1]), "without c_hg the jump is not stress-free: %g vs %g", fx[0], fx[1]);
+  return k;
+}
+
+START_TEST(test_chg_shear_traction)
+{
+  const double k8 = chg_traction_k(0.125), k16 = chg_traction_k(0.0625);
+  ck_assert_msg(k8 > 0.0 && k16 > 0.0, "no drag across the jump: k = %g, %g", k8, k16);
+  ck_assert_msg(fabs(k16 / k8 - 1) < 0.03, "k depends on the spacing: %g vs %g", k8, k16);
+}
+END_TEST
+
 int main(void)
 {
   Suite *s = suite_create("ulpd");
@@ -644,6 +698,7 @@ int main(void)
   tcase_add_test(tm, test_stable_dt);
   tcase_add_test(tm, test_uniform_periodic);
   tcase_add_test(tm, test_summation_density);
+  tcase_add_test(tm, test_chg_shear_traction);
   suite_add_tcase(s, tm);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
