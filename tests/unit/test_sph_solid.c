@@ -418,37 +418,26 @@ END_TEST
  * fade under refinement (pure shear has approaching pairs). The same test as rkpm's
  * `stabilization` (test_rkpm.c test_stabilization_traction). With `visc_switch: balsara` the
  * traction vanishes (div v = 0 at a pure shear jump). Returns k; *k_balsara the switched one. */
-static ej_err sv_open(vscene *c, const char *fmt, ...)
-{
-  const ej_plugin_info *pl[] = {ej_plugin_sph_info(), ej_plugin_elastic_info()};
-  va_list ap;
-  va_start(ap, fmt);
-  ej_err rc = vscene_open(c, "sphvisc", pl, 2, fmt, ap);
-  va_end(ap);
-  return rc;
-}
-
 static double visc_traction_k(double spacing, double *k_balsara)
 {
   double fx[3] = {0, 0, 0}, c0 = 0;
   const double dv = 1e-3, dt = 1e-6, alpha = 1.0;
   for (int run = 0; run < 3; ++run) {
     vscene c;
-    ej_buf b = {0};
-    ej_buf_printf(&b,
-                  "ejecta: 1\ndimension: 3\ntime: {end: 1, dt: %g, max_steps: 1}\n"
-                  "output: {file: st.h5, every: 1, fields: [v]}\n"
-                  "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
-                  "sets:\n  block:\n    method: sph\n    strength: true\n    material: m\n"
-                  "    alpha: %g\n    beta: 0\n%s"
-                  "    shape: {box: {min: [0, 0, -0.5], max: [1, 1, 0.5]}}\n    spacing: %.17g\n"
-                  "    velocity: [%g, 0, 0]\n    initial:\n"
-                  "      - {region: {half_space: {point: [0, 0, 0], normal: [0, 0, -1]}}, velocity: [%g, 0, 0]}\n"
-                  "boundaries:\n  - periodic: {axis: x, min: 0, max: 1}\n  - periodic: {axis: y, min: 0, max: 1}\n",
-                  dt, run ? alpha : 0.0, run == 2 ? "    visc_switch: balsara\n" : "", spacing, -0.5 * dv,
-                  0.5 * dv);
-    ej_err rc = sv_open(&c, "%s", b.data);
-    ej_buf_free(&b);
+    const ej_plugin_info *pl[] = {ej_plugin_sph_info(), ej_plugin_elastic_info()};
+    ej_err rc = vscene_openf(
+        &c, "sphvisc", pl, 2,
+        "ejecta: 1\ndimension: 3\ntime: {end: 1, dt: %g, max_steps: 1}\n"
+        "output: {file: st.h5, every: 1, fields: [v]}\n"
+        "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
+        "sets:\n  block:\n    method: sph\n    strength: true\n    material: m\n"
+        "    alpha: %g\n    beta: 0\n%s"
+        "    shape: {box: {min: [0, 0, -0.5], max: [1, 1, 0.5]}}\n    spacing: %.17g\n"
+        "    velocity: [%g, 0, 0]\n    initial:\n"
+        "      - {region: {half_space: {point: [0, 0, 0], normal: [0, 0, -1]}}, velocity: [%g, 0, 0]}\n"
+        "boundaries:\n  - periodic: {axis: x, min: 0, max: 1}\n  - periodic: {axis: y, min: 0, max: 1}\n",
+        dt, run ? alpha : 0.0, run == 2 ? "    visc_switch: balsara\n" : "", spacing, -0.5 * dv,
+        0.5 * dv);
     if (rc != EJ_OK) ej_error_report("test");
     ck_assert_int_eq(rc, EJ_OK);
     vrun_run(&c.r);

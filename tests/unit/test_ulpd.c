@@ -636,32 +636,24 @@ END_TEST
  * z = 0 with k independent of the spacing: the non-affine part of the relative velocity is largest
  * across a shear jump, so the drag does not fade under refinement (the same test as sph's viscosity
  * and rkpm's stabilisation). Returns k. */
-static ej_err uv_open(vscene *c, const char *fmt, ...)
-{
-  const ej_plugin_info *pl[] = {ej_plugin_ulpd_info(), ej_plugin_elastic_info()};
-  va_list ap;
-  va_start(ap, fmt);
-  ej_err rc = vscene_open(c, "ulpdvisc", pl, 2, fmt, ap);
-  va_end(ap);
-  return rc;
-}
-
 static double chg_traction_k(double spacing)
 {
   double fx[2] = {0, 0}, c0 = 0;
   const double dv = 1e-3, dt = 1e-6, chg = 0.1;
   for (int run = 0; run < 2; ++run) {
     vscene c;
-    ej_err rc = uv_open(&c,
-                        "ejecta: 1\ndimension: 3\ntime: {end: 1, dt: %g, max_steps: 1}\n"
-                        "output: {file: st.h5, every: 1, fields: [v]}\n"
-                        "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
-                        "sets:\n  block:\n    method: ulpd\n    material: m\n    c_hg: %g\n    C_q: 0\n    C_l: 0\n"
-                        "    shape: {box: {min: [0, 0, -1], max: [1, 1, 1]}}\n    spacing: %.17g\n"
-                        "    velocity: [%g, 0, 0]\n    initial:\n"
-                        "      - {region: {half_space: {point: [0, 0, 0], normal: [0, 0, -1]}}, velocity: [%g, 0, 0]}\n"
-                        "boundaries:\n  - periodic: {axis: x, min: 0, max: 1}\n  - periodic: {axis: y, min: 0, max: 1}\n",
-                        dt, run ? chg : 0.0, spacing, -0.5 * dv, 0.5 * dv);
+    const ej_plugin_info *pl[] = {ej_plugin_ulpd_info(), ej_plugin_elastic_info()};
+    ej_err rc = vscene_openf(
+        &c, "ulpdvisc", pl, 2,
+        "ejecta: 1\ndimension: 3\ntime: {end: 1, dt: %g, max_steps: 1}\n"
+        "output: {file: st.h5, every: 1, fields: [v]}\n"
+        "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
+        "sets:\n  block:\n    method: ulpd\n    material: m\n    c_hg: %g\n    C_q: 0\n    C_l: 0\n"
+        "    shape: {box: {min: [0, 0, -1], max: [1, 1, 1]}}\n    spacing: %.17g\n"
+        "    velocity: [%g, 0, 0]\n    initial:\n"
+        "      - {region: {half_space: {point: [0, 0, 0], normal: [0, 0, -1]}}, velocity: [%g, 0, 0]}\n"
+        "boundaries:\n  - periodic: {axis: x, min: 0, max: 1}\n  - periodic: {axis: y, min: 0, max: 1}\n",
+        dt, run ? chg : 0.0, spacing, -0.5 * dv, 0.5 * dv);
     if (rc != EJ_OK) ej_error_report("test");
     ck_assert_int_eq(rc, EJ_OK);
     vrun_run(&c.r);

@@ -155,6 +155,17 @@ static inline ej_err vscene_open(vscene *c, const char *tag, const ej_plugin_inf
   return vscene_open_threads(c, tag, plugins, np, 1, fmt, ap);
 }
 
+/* vscene_open with the format's arguments given directly. */
+static inline ej_err vscene_openf(vscene *c, const char *tag, const ej_plugin_info *const *plugins, int np,
+                                  const char *fmt, ...)
+{
+  va_list ap;
+  va_start(ap, fmt);
+  ej_err rc = vscene_open(c, tag, plugins, np, fmt, ap);
+  va_end(ap);
+  return rc;
+}
+
 static inline void vscene_free(vscene *c)
 {
   vrun_free(&c->r);
