@@ -622,20 +622,17 @@ static double stab_traction_k(double spacing)
   double fx[2] = {0, 0}, c0 = 0;
   const double dv = 1e-3, dt = 1e-6, alpha = 0.1;
   for (int run = 0; run < 2; ++run) {
-    ej_buf b = {0};
-    ej_buf_printf(&b,
-                  "ejecta: 1\ndimension: 3\ntime: {end: 1, dt: %g, max_steps: 1}\n"
-                  "output: {file: st.h5, every: 1, fields: [v]}\n"
-                  "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
-                  "sets:\n  block:\n    method: rkpm\n    material: m\n    stabilization: %g\n"
-                  "    shape: {box: {min: [0, 0, -0.5], max: [1, 1, 0.5]}}\n    spacing: %.17g\n"
-                  "    velocity: [%g, 0, 0]\n    initial:\n"
-                  "      - {region: {half_space: {point: [0, 0, 0], normal: [0, 0, -1]}}, velocity: [%g, 0, 0]}\n",
-                  dt, run ? alpha : 0.0, spacing, -0.5 * dv, 0.5 * dv);
-    vscene c;
-    rk_run_text(&c, &b, 1);
-    fx[run] = shear_jump_force_x(c.r.sim, dv, dt, &c0);
-    vscene_free(&c);
+    const ej_plugin_info *pl[] = {ej_plugin_rkpm_info(), ej_plugin_elastic_info()};
+    fx[run] = shear_jump_run(
+        "rkpm", pl, 2, dv, dt, &c0,
+        "ejecta: 1\ndimension: 3\ntime: {end: 1, dt: %g, max_steps: 1}\n"
+        "output: {file: st.h5, every: 1, fields: [v]}\n"
+        "materials:\n  m: {model: elastic, rho0: 1, E: 1, nu: 0.25}\n"
+        "sets:\n  block:\n    method: rkpm\n    material: m\n    stabilization: %g\n"
+        "    shape: {box: {min: [0, 0, -0.5], max: [1, 1, 0.5]}}\n    spacing: %.17g\n"
+        "    velocity: [%g, 0, 0]\n    initial:\n"
+        "      - {region: {half_space: {point: [0, 0, 0], normal: [0, 0, -1]}}, velocity: [%g, 0, 0]}\n",
+        dt, run ? alpha : 0.0, spacing, -0.5 * dv, 0.5 * dv);
   }
   /* box face 1 x 1: the traction is the force; rho = 1 */
   fprintf(stderr, "rkpm stabilisation across a velocity jump, spacing %g: force without %.3e, with %.3e, k = %.4f\n",

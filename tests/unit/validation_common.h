@@ -155,17 +155,6 @@ static inline ej_err vscene_open(vscene *c, const char *tag, const ej_plugin_inf
   return vscene_open_threads(c, tag, plugins, np, 1, fmt, ap);
 }
 
-/* vscene_open with the format's arguments given directly. */
-static inline ej_err vscene_openf(vscene *c, const char *tag, const ej_plugin_info *const *plugins, int np,
-                                  const char *fmt, ...)
-{
-  va_list ap;
-  va_start(ap, fmt);
-  ej_err rc = vscene_open(c, tag, plugins, np, fmt, ap);
-  va_end(ap);
-  return rc;
-}
-
 static inline void vscene_free(vscene *c)
 {
   vrun_free(&c->r);
@@ -184,17 +173,28 @@ static inline void vrun_cleanup(const char *dir, const char *const *names, int n
 }
 
 /* The shear-jump traction tests (test_rkpm.c test_stabilization_traction, test_sph_solid.c
- * test_visc_shear_traction): a 3D block of set 0 whose upper half (z > 0) started at +dv/2 along x;
- * after one step of dt, the x force on that half, sum m (v_x - dv/2) / dt. *c0 gets the sound speed
- * of the first particle. */
-static inline double shear_jump_force_x(const ej_sim *sim, double dv, double dt, double *c0)
+ * test_visc_shear_traction, test_ulpd.c test_chg_shear_traction): runs the printf-formatted scene,
+ * a 3D block whose upper half (z > 0) of set 0 started at +dv/2 along x, for its one step of dt
+ * and returns the x force on that half, sum m (v_x - dv/2) / dt; *c0 gets the sound speed of the
+ * first particle. */
+static inline double shear_jump_run(const char *tag, const ej_plugin_info *const *plugins, int np, double dv,
+                                    double dt, double *c0, const char *fmt, ...)
 {
-  const ej_set *set = sim->sets[0];
+  vscene c;
+  va_list ap;
+  va_start(ap, fmt);
+  ej_err rc = vscene_open(&c, tag, plugins, np, fmt, ap);
+  va_end(ap);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  vrun_run(&c.r);
+  const ej_set *set = c.r.sim->sets[0];
   const ej_real *x = ej_set_field(set, "x"), *v = ej_set_field(set, "v"), *m = ej_set_field(set, "m");
   double fx = 0;
   for (ej_idx i = 0; i < ej_set_count(set); ++i)
     if (x[3 * i + 2] > 0) fx += m[i] * (v[3 * i] - 0.5 * dv) / dt;
   *c0 = ej_set_field(set, "c")[0];
+  vscene_free(&c);
   return fx;
 }
 
