@@ -769,6 +769,37 @@ static inline SPH_ALWAYS_INLINE int sph_pairs_gather(const int dim, const ej_rea
                                                      ej_real *restrict bx, ej_real *restrict by, ej_real *restrict bz,
                                                      ej_real *restrict bh, ej_idx *restrict jb);
 
+/* Inverse of the symmetric 3 x 3 matrix b (Voigt order xx yy zz xy yz zx) into t, returning the
+ * reciprocal condition estimate 1/(|A|_F |A^-1|_F), or 0 for a matrix that is singular relative to
+ * its scale (|det A| <= 1e-12 (|A|_F/sqrt 3)^3: a rank-1 M, an isolated pair in 3D, has cofactors of
+ * round-off size and an estimate that can come out ~0.1) or whose inverse is not finite. The
+ * operations of ej_m3_inverse (core tensor.h) on the full matrix, in the same order, with the three
+ * cofactors that equal others by symmetry (products commute exactly) left out and ej_m3_to_s6's
+ * 0.5 (T_ab + T_ba) = T_ab exact: bitwise its result, for about half the work (the shape pass runs
+ * it once per particle and step). */
+static inline SPH_ALWAYS_INLINE ej_real sph_s6_inverse(ej_real t[6], const ej_real b[6])
+{
+  const ej_real c00 = b[1] * b[2] - b[4] * b[4], c01 = b[4] * b[5] - b[3] * b[2], c02 = b[3] * b[4] - b[1] * b[5];
+  const ej_real det = b[0] * c00 + b[3] * c01 + b[5] * c02;
+  /* |A|_F^2 summed in ej_m3_norm's order: A0 A1 A2 A3 A4 A5 A6 A7 A8 */
+  ej_real sa = b[0] * b[0];
+  sa += b[3] * b[3], sa += b[5] * b[5], sa += b[3] * b[3], sa += b[1] * b[1];
+  sa += b[4] * b[4], sa += b[5] * b[5], sa += b[4] * b[4], sa += b[2] * b[2];
+  const ej_real na = sqrt(sa), scale = na / 1.7320508075688772;
+  if (!(na > 0) || !(fabs(det) > 1e-12 * scale * scale * scale)) return 0.0;
+  const ej_real id = 1 / det;
+  const ej_real T0 = c00 * id, T1 = c01 * id, T2 = c02 * id;
+  const ej_real T4 = (b[0] * b[2] - b[5] * b[5]) * id, T5 = (b[5] * b[3] - b[0] * b[4]) * id;
+  const ej_real T8 = (b[0] * b[1] - b[3] * b[3]) * id;
+  ej_real si = T0 * T0;
+  si += T1 * T1, si += T2 * T2, si += T1 * T1, si += T4 * T4;
+  si += T5 * T5, si += T2 * T2, si += T5 * T5, si += T8 * T8;
+  const ej_real ni = sqrt(si);
+  if (!isfinite(ni)) return 0.0;
+  t[0] = T0, t[1] = T4, t[2] = T8, t[3] = T1, t[4] = T5, t[5] = T2;
+  return 1 / (na * ni);
+}
+
 /* Current shape tensor of the consistent SPH, digest 000 Eqs 29-31 (Fan & Li): the discrete
  * M_i = sum_j (m_j/rho_j) w(|x_ij|) x_ij (x) x_ij (the digest's [GAP] note: only the continuous
  * Eq 30 is printed; this is the quadrature consistent with Eq 31), x_ij = x_j - x_i, w the kernel
@@ -818,6 +849,22 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
         const ej_idx j = jb[q];
         bV[q] = vol ? vol[j] : m[j] / rho[j];
       }
+      /* Two loops: the weights w_j first (elementwise, into bV), then the six moments. In one loop GCC 12
+       * kept two of the six accumulators on the stack (16 live vectors: 6 sums, the row's x_i and h_i,
+       * the kernel's constants), and their load-add-store chain bound the loop. Same operations, same
+       * order, same reduction: bitwise the one-loop result. */
+#if defined(_OPENMP)
+#pragma omp simd
+#endif
+      for (int p = 0; p < nk; ++p) {
+        const ej_real rx = xi0 - bx[p];
+        const ej_real ry = dim > 1 ? xi1 - by[p] : 0.0;
+        const ej_real rz = dim > 2 ? xi2 - bz[p] : 0.0;
+        const ej_real r2 = rx * rx + ry * ry + rz * rz;
+        const ej_real hbar = 0.5 * (hi + bh[p]);
+        const ej_real inv_h = 1.0 / hbar;
+        bV[p] = bV[p] * sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, sqrt(r2) * inv_h);
+      }
 #if defined(_OPENMP)
 #pragma omp simd reduction(+ : b0, b1, b2, b3, b4, b5)
 #endif
@@ -826,10 +873,7 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
         const ej_real rx = xi0 - bx[p];
         const ej_real ry = dim > 1 ? xi1 - by[p] : 0.0;
         const ej_real rz = dim > 2 ? xi2 - bz[p] : 0.0;
-        const ej_real r2 = rx * rx + ry * ry + rz * rz;
-        const ej_real hbar = 0.5 * (hi + bh[p]);
-        const ej_real inv_h = 1.0 / hbar;
-        const ej_real w = bV[p] * sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, sqrt(r2) * inv_h);
+        const ej_real w = bV[p];
         b0 += w * rx * rx;
         b1 += w * ry * ry;
         b2 += w * rz * rz;
@@ -849,22 +893,14 @@ static inline SPH_ALWAYS_INLINE void sph_shape_rows(const int kernel, const int 
       for (int c = 0; c < 6; ++c) mc[c] = 0.0;
     }
     for (int c = 0; c < 6; ++c) b[c] *= inv_hi * inv_hi;
-    ej_real A[9], B[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
     const ej_real pad = (b[0] + b[1] + b[2]) / dim;
-    ej_s6_to_m3(A, b);
-    if (dim < 3) A[8] = pad > 0.0 ? pad : 1.0;
-    if (dim < 2) A[4] = A[8];
-    ej_real rc = ej_m3_inverse(B, A);
-    /* ej_m3_inverse only rejects det == 0 in absolute terms: for a rank-1 M (an isolated pair in
-     * 3D) every cofactor is round-off too and the estimate can come out ~0.1. A determinant
-     * below 1e-12 of the scale (|A|_F/sqrt 3)^3 is singular whatever the estimate says. */
-    const ej_real sc = ej_m3_norm(A) * (1.0 / 1.7320508075688772);
-    if (!(fabs(ej_m3_det(A)) > 1e-12 * sc * sc * sc)) rc = 0.0;
+    if (dim < 3) b[2] = pad > 0.0 ? pad : 1.0;
+    if (dim < 2) b[1] = b[2];
+    ej_real t[6];
+    const ej_real rc = sph_s6_inverse(t, b);
     ej_real *Mi = Minv + 6 * i;
     if (rc >= rcond_min && rc > 0.0) {
       const ej_real s2 = inv_hi * inv_hi;
-      ej_real t[6];
-      ej_m3_to_s6(t, B);
       Mi[0] = t[0] * s2;
       Mi[1] = dim > 1 ? t[1] * s2 : 0.0;
       Mi[2] = dim > 2 ? t[2] * s2 : 0.0;
