@@ -1133,7 +1133,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs(const int kernel, const int dim, 
  * slowest vector operations (profile in README). With r >= 1e-12 hbar, d1 >= eta^2 hbar^2 and
  * rho_sum >= 2 rho_min the product neither overflows nor underflows for any physical scale. */
 /* the gathered neighbour data of sph_pairs_row (buf[k], k one of these) */
-enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BPR, BM, NBUF };
+enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BPR, BM, BGW, BID1, BIRS, BWJ, BWS, NBUF };
 
 static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int dim, const int shape, const bool fb0,
                                                     const sph_pair_args *A, const ej_idx i,
@@ -1179,6 +1179,8 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
   ej_real *restrict bx = buf[BX], *restrict by = buf[BY], *restrict bz = buf[BZ], *restrict bh = buf[BH];
   ej_real *restrict bvx = buf[BVX], *restrict bvy = buf[BVY], *restrict bvz = buf[BVZ];
   ej_real *restrict brho = buf[BRHO], *restrict bc = buf[BC], *restrict bpr = buf[BPR], *restrict bm = buf[BM];
+  ej_real *restrict bgw = buf[BGW], *restrict bid1 = buf[BID1], *restrict birs = buf[BIRS], *restrict bwj = buf[BWJ];
+  ej_real *restrict bws = buf[BWS];
 
   const ej_real xi0 = x[3 * i], xi1 = dim > 1 ? x[3 * i + 1] : 0.0, xi2 = dim > 2 ? x[3 * i + 2] : 0.0;
   const ej_real vi0 = v[3 * i], vi1 = dim > 1 ? v[3 * i + 1] : 0.0, vi2 = dim > 2 ? v[3 * i + 2] : 0.0;
@@ -1261,8 +1263,12 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
       __asm__ volatile("");
 #endif
     }
+    /* Two loops (as the shape pass's): the pair's geometric factors first (elementwise, into buffers:
+     * grad W, 1/d1, 1/(rho_i + rho_j), the continuity weight, the kernel value of the shape forms), then
+     * the sums. In one loop GCC 12 spilled accumulators (8 sums, ~20 row constants), and their
+     * load-add-store chains bound it. The same operations in the same order: bitwise the one-loop sums. */
 #if defined(_OPENMP)
-#pragma omp simd reduction(+ : ax, ay, az, drho, norm, de, dw) reduction(max : mumax)
+#pragma omp simd
 #endif
     for (int q = 0; q < nk; ++q) {
       const ej_real rx = xi0 - bx[q];
@@ -1270,10 +1276,6 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
       const ej_real rz = dim > 2 ? xi2 - bz[q] : 0.0;
       const ej_real r2 = rx * rx + ry * ry + rz * rz;
       const ej_real hbar = 0.5 * (hi + bh[q]);
-      /* every gathered entry passed r2 < 4 hbar^2 with these operations (sph_pairs_gather, or the
-       * shape pass's kept-neighbour slots: the same r2 and hbar), so the skin selects below fold away */
-      const bool keep = true;
-      (void)r2;
       /* A coincident pair has f'(0) = 0 for both kernels: clamping r keeps 0 * finite. */
       const ej_real r_raw = sqrt(r2), r_min = 1e-12 * hbar;
       const ej_real r = r_raw > r_min ? r_raw : r_min;
@@ -1289,6 +1291,24 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
       const ej_real wv = volume_form ? bm[q] * (PQ * D) : bm[q];
       const ej_real wj = wv * w_mul + w_one;
       const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_kernel_df(kernel, dim, r * inv_h) * inv_r;
+      bgw[q] = gw, bid1[q] = inv_d1, birs[q] = inv_rho_sum, bwj[q] = wj;
+      if (shape) bws[q] = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
+    }
+#if defined(_OPENMP)
+#pragma omp simd reduction(+ : ax, ay, az, drho, norm, de, dw) reduction(max : mumax)
+#endif
+    for (int q = 0; q < nk; ++q) {
+      const ej_real rx = xi0 - bx[q];
+      const ej_real ry = dim > 1 ? xi1 - by[q] : 0.0;
+      const ej_real rz = dim > 2 ? xi2 - bz[q] : 0.0;
+      const ej_real r2 = rx * rx + ry * ry + rz * rz;
+      const ej_real hbar = 0.5 * (hi + bh[q]);
+      /* every gathered entry passed r2 < 4 hbar^2 with these operations (sph_pairs_gather, or the
+       * shape pass's kept-neighbour slots: the same r2 and hbar), so the skin selects below fold away */
+      const bool keep = true;
+      const ej_real rhoj = brho[q];
+      const ej_real inv_d1 = bid1[q], inv_rho_sum = birs[q], wj = bwj[q];
+      const ej_real gw = bgw[q];
       const ej_real vx = vi0 - bvx[q];
       const ej_real vy = dim > 1 ? vi1 - bvy[q] : 0.0;
       const ej_real vz = dim > 2 ? vi2 - bvz[q] : 0.0;
@@ -1307,7 +1327,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
          * instead of two, and no select on the row's flag (README "Throughput note (shape pair loop,
          * explosive bench)"). The same G_ij up to round-off; a pair of two fallback rows gets
          * exactly grad_i W_ij (0.5 (1 + 1) gw, the product term is 0), as in the branch below. */
-        const ej_real wv = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
+        const ej_real wv = bws[q];
         const bool fj = !(bM[0][q] > 0.0); /* fallback row j: M_j^-1 = 0 */
         const ej_real s0 = mi0 + bM[0][q], s1 = mi1 + bM[1][q], s2 = mi2 + bM[2][q];
         const ej_real s3 = mi3 + bM[3][q], s4 = mi4 + bM[4][q], s5 = mi5 + bM[5][q];
@@ -1321,7 +1341,7 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_row(const int kernel, const int d
         vG = (fbi && fj) ? vr * gw : vx * gx + vy * gy + vz * gz;
         vC = fbi ? vr * gw : vG; /* shape_continuity: symmetric (a fallback row: the kernel divergence) */
       } else if (shape) { /* the expressions of sph_pairs, with selects for the fallbacks */
-        const ej_real wv = sigma * sph_inv_pow(inv_h, dim) * sph_kernel_f(kernel, dim, r * inv_h);
+        const ej_real wv = bws[q];
         const ej_real ux = -wv * rx, uy = -wv * ry, uz = -wv * rz;
         const ej_real sx = mi0 * ux + mi3 * uy + mi5 * uz;
         const ej_real sy = dim > 1 ? mi3 * ux + mi1 * uy + mi4 * uz : 0.0;
