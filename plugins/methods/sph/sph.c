@@ -1715,7 +1715,7 @@ static inline SPH_ALWAYS_INLINE void sph_solid_velgrad_row(const int kernel, con
                                                            const ej_idx *restrict idx, const ej_idx i, ej_real Lv[9])
 {
   const ej_real sigma = sph_kernel_sigma(kernel, dim);
-  enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BM, BRHO, NBUF };
+  enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BM, BRHO, BW, NBUF };
   ej_real buf[NBUF][SPH_SOLID_BLK];
   ej_real *restrict bx = buf[BX], *restrict by = buf[BY], *restrict bz = buf[BZ], *restrict bh = buf[BH];
   ej_real *restrict bvx = buf[BVX], *restrict bvy = buf[BVY], *restrict bvz = buf[BVZ];
@@ -1748,8 +1748,12 @@ static inline SPH_ALWAYS_INLINE void sph_solid_velgrad_row(const int kernel, con
       __asm__ volatile(""); /* keeps the gather scalar (as in sph_pairs_blocked) */
 #endif
     }
+    /* Two loops: the weights V_j grad W first (elementwise, into bw), then the nine sums. In one loop
+     * GCC 12 spilled accumulators (9 sums beside the row's x_i, v_i, h_i and the kernel's constants).
+     * The same operations in the same order: bitwise the one-loop sums. */
+    ej_real *restrict bw = buf[BW];
 #if defined(_OPENMP)
-#pragma omp simd reduction(+ : s00, s01, s02, s10, s11, s12, s20, s21, s22)
+#pragma omp simd
 #endif
     for (int q = 0; q < nk; ++q) {
       const ej_real rx = xi0 - bx[q], ry = dim > 1 ? xi1 - by[q] : 0.0, rz = dim > 2 ? xi2 - bz[q] : 0.0;
@@ -1759,7 +1763,14 @@ static inline SPH_ALWAYS_INLINE void sph_solid_velgrad_row(const int kernel, con
       const ej_real rhoj = brho[q], P = r * hbar, D = 1.0 / (P * rhoj), Dr = D * rhoj;
       const ej_real inv_h = r * Dr, inv_r = hbar * Dr, inv_rho = P * D;
       const ej_real gw = sigma * sph_inv_pow(inv_h, dim + 1) * sph_solid_kdf(kernel, dim, r * inv_h) * inv_r;
-      const ej_real w = bm[q] * inv_rho * gw;
+      bw[q] = bm[q] * inv_rho * gw;
+    }
+#if defined(_OPENMP)
+#pragma omp simd reduction(+ : s00, s01, s02, s10, s11, s12, s20, s21, s22)
+#endif
+    for (int q = 0; q < nk; ++q) {
+      const ej_real rx = xi0 - bx[q], ry = dim > 1 ? xi1 - by[q] : 0.0, rz = dim > 2 ? xi2 - bz[q] : 0.0;
+      const ej_real w = bw[q];
       const ej_real dx = w * (bvx[q] - vi0);
       s00 += dx * rx;
       if (dim > 1) s01 += dx * ry;
@@ -1952,7 +1963,8 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
    * one load and three operations per pair, and no further instantiations of this loop */
   const ej_real *restrict fsw = A->fsw;
   const bool bals = fsw != NULL;
-  enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BM, BF, BS0, BR0 = BS0 + 6, BL0 = BR0 + 6, NBUF = BL0 + 6 };
+  enum { BX, BY, BZ, BH, BVX, BVY, BVZ, BRHO, BC, BM, BF, BGX, BGY, BGZ, BID1, BIRS, BFN, BWX, BS0,
+         BR0 = BS0 + 6, BL0 = BR0 + 6, NBUF = BL0 + 6 };
   ej_real buf[NBUF][SPH_SOLID_BLK]; /* fixed size: a variable-length array defeats the vectoriser */
   ej_real *restrict bx = buf[BX], *restrict by = buf[BY], *restrict bz = buf[BZ], *restrict bh = buf[BH];
   ej_real *restrict bvx = buf[BVX], *restrict bvy = buf[BVY], *restrict bvz = buf[BVZ];
@@ -2017,8 +2029,12 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
         __asm__ volatile(""); /* keeps the gather scalar (as in sph_pairs_blocked) */
 #endif
       }
+      /* Two loops (as the gas pair loop): the pair's geometric factors first (G_ij, 1/d1, 1/(rho_i + rho_j),
+       * the artificial-stress weight f^n and the XSPH kernel value, elementwise into buffers), then the
+       * sums. In one loop GCC 12 spilled accumulators (up to 9 sums beside ~20 row constants). The same
+       * operations in the same order: bitwise the one-loop sums. */
 #if defined(_OPENMP)
-#pragma omp simd reduction(+ : ax, ay, az, de, dw, xs0, xs1, xs2) reduction(max : mumax)
+#pragma omp simd
 #endif
       for (int q = 0; q < nk; ++q) {
         const ej_real rx = xi0 - bx[q], ry = dim > 1 ? xi1 - by[q] : 0.0, rz = dim > 2 ? xi2 - bz[q] : 0.0;
@@ -2041,15 +2057,27 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
           gy = dim > 1 ? l3 * u0 + l1 * u1 + l4 * u2 : 0.0;
           gz = dim > 2 ? l5 * u0 + l4 * u1 + l2 * u2 : 0.0;
         }
+        /* no branches in this loop (only selects): GCC 12 leaves it scalar otherwise */
+        const ej_real f = sph_solid_kf(kernel, dim, qq), fr = f * inv_fdx;
+        buf[BFN][q] = (art ? 1.0 : 0.0) * (art4 ? (fr * fr) * (fr * fr) : pow(fr, art_n));
+        buf[BGX][q] = gx, buf[BGY][q] = gy, buf[BGZ][q] = gz, buf[BID1][q] = inv_d1, buf[BIRS][q] = inv_rho_sum;
+        if (do_xsph) buf[BWX][q] = sigma * sph_inv_pow(inv_h, dim) * f;
+      }
+#if defined(_OPENMP)
+#pragma omp simd reduction(+ : ax, ay, az, de, dw, xs0, xs1, xs2) reduction(max : mumax)
+#endif
+      for (int q = 0; q < nk; ++q) {
+        const ej_real rx = xi0 - bx[q], ry = dim > 1 ? xi1 - by[q] : 0.0, rz = dim > 2 ? xi2 - bz[q] : 0.0;
+        const ej_real hbar = 0.5 * (hi + bh[q]);
+        const ej_real gx = buf[BGX][q], gy = buf[BGY][q], gz = buf[BGZ][q];
+        const ej_real inv_d1 = buf[BID1][q], inv_rho_sum = buf[BIRS][q];
         const ej_real vx = vi0 - bvx[q], vy = dim > 1 ? vi1 - bvy[q] : 0.0, vz = dim > 2 ? vi2 - bvz[q] : 0.0;
         const ej_real vr = vx * rx + vy * ry + vz * rz;
         const ej_real mu = hbar * (vr < 0.0 ? vr : 0.0) * inv_d1;
         const ej_real pi_ij = (-alpha * 0.5 * (ci + bc[q]) * mu + beta * mu * mu) * 2.0 * inv_rho_sum *
                               (0.5 * (fi + bf[q]));
         mumax = -mu > mumax ? -mu : mumax;
-        /* no branches in this loop (only selects): GCC 12 leaves it scalar otherwise */
-        const ej_real f = sph_solid_kf(kernel, dim, qq), fr = f * inv_fdx;
-        const ej_real fn = (art ? 1.0 : 0.0) * (art4 ? (fr * fr) * (fr * fr) : pow(fr, art_n));
+        const ej_real fn = buf[BFN][q];
         const ej_real hp = 0.5 * pi_ij;
         /* Ti = sigma_i/rho_i^2 + f^n R_i - Pi/2 I; T = Ti + Tj */
         const ej_real ti0 = si0 + fn * Ri0 - hp, ti1 = si1 + fn * Ri1 - hp, ti2 = si2 + fn * Ri2 - hp;
@@ -2073,7 +2101,7 @@ static inline SPH_ALWAYS_INLINE void sph_solid_force_blocked(const int kernel, c
         dw += mk * hp * (vx * gx + vy * gy + vz * gz);
         /* XSPH (Monaghan, JCP 82 (1989) 1, Eq 2.6): (m_j / rhobar) (v_j - v_i) W_ij */
         if (do_xsph) { /* a constant of the instantiation: no branch in the loop */
-          const ej_real wx = sigma * sph_inv_pow(inv_h, dim) * f;
+          const ej_real wx = buf[BWX][q];
           const ej_real fx = -xsph * mk * 2.0 * inv_rho_sum * wx;
           xs0 += fx * vx, xs1 += fx * vy, xs2 += fx * vz;
         }
