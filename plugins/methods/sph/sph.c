@@ -1410,8 +1410,9 @@ static inline SPH_ALWAYS_INLINE void sph_pairs_blocked(const int kernel, const i
    * A local copy of the arguments: the stores into a[], e_dot[]... cannot alias it, so the pointers and
    * constants stay in registers across rows. */
   const sph_pair_args L = *A;
-  /* gathered neighbour data (12 KiB of stack, L1-resident); one array so that every buffer is a constant
-   * offset from one base register (no spilled pointers); declared here, once per range, not per row */
+  /* gathered neighbour data (16 KiB of stack, 6 KiB more for bM with the shape forms); one array so that
+   * every buffer is a constant offset from one base register (no spilled pointers); declared here, once
+   * per range, not per row */
   ej_real buf[NBUF][SPH_BLK];
   ej_real bM[shape >= 2 ? 6 : 1][SPH_BLK]; /* shape >= 2: the neighbours' M_j^-1 */
   ej_idx jb[SPH_BLK];                      /* neighbours of the block (the compaction gather's) */
