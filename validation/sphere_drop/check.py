@@ -16,7 +16,8 @@ delta/d = 1.4, 2.4, 2.85 (+-0.2), tolerance 20 % relative (and the ball must hav
 crater: |v_z| < 5 % of v0 at the end, its lowest point below the surface), and with the Uehara et al. (2003) scaling law. Writes sphere_drop_msnni.png
 (sphere_drop.png with --integration dni), prints PASS/FAIL per height with the measured errors.
 --container seguin runs Seguin's Ø190 x 150 mm container instead of the narrow 42 x 42 x 84 mm
-quarter bed; --contact-damping sets kernel_contact's normal damping (README, fourteenth session)."""
+quarter bed; --contact-damping sets kernel_contact's normal damping (README, fourteenth session).
+Each run's depth track (t, depth, v_z every 0.1 ms) is written as OUT/NAME_track.csv."""
 import argparse
 import math
 import os
@@ -141,6 +142,20 @@ def ball_track(path):
     return common.read_series(path, "energy")["t"], sr["z_cm"], sr["v_z"], sr["force_z"], sr["mass"]
 
 
+def write_track(path, t, pen, vz, every=1e-4):
+    """The ball's depth and velocity every `every` seconds (and the last step) as CSV, so that runs at
+    other spacings can be compared at equal times after the HDF5 output is gone (README: the 6 mm
+    track was not kept). Columns: t [s], depth of the lowest point below the surface [m], v_z [m/s]."""
+    keep = [0]
+    for k in range(1, len(t)):
+        if t[k] >= t[keep[-1]] + every - 1e-12 or k == len(t) - 1:
+            keep.append(k)
+    with open(path, "w") as f:
+        f.write("t_s,depth_m,v_z_m_per_s\n")
+        for k in keep:
+            f.write(f"{t[k]:.9g},{pen[k]:.9g},{vz[k]:.9g}\n")
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--build", default="build")
@@ -221,6 +236,7 @@ def main():
         pen = surface(s, a.depth) - (zc - R)  # depth of the (rigid, exact-sphere) ball's lowest point below the surface
         delta = float(np.max(pen))
         v_end = float(vz[-1])
+        write_track(os.path.join(a.out, name + "_track.csv"), t, pen, vz)
         m_exact = 7800 * math.pi / 3 * R ** 3  # quarter sphere
         print(f"  ball: quarter mass {mass[-1]:.4g} kg (exact sphere {m_exact:.4g}, {100 * (mass[-1] / m_exact - 1):+.1f} %), "
               f"max contact force (quarter) {float(np.max(fz + mass * G)):.3g} N, steps {len(t)}")
