@@ -51,15 +51,31 @@ def uehara(h, mu=math.tan(math.radians(25)), rb=7800.0, rg=1500.0):
 
 def surface(s, depth):
     """Free surface of the bed: the top lattice layer + s/2. The cubic lattice is anchored at the
-    box's minimum (core/src/geometry.c ej_lattice_site: centres at lo + (k + 1/2) s), so the top
-    layer is at -s/2 only when depth/s is an integer (6, 4, 3 mm); at 5 mm it is at -1.5 mm and
-    the surface at +1 mm. Depths are measured from this surface (Seguin: depth of the ball's
-    bottom below the free surface)."""
-    k = math.floor(depth / s - 0.5 + 1e-9)  # last k with -depth + (k + 1/2) s < 0
-    while -depth + (k + 0.5) * s >= 0:
+    box's minimum (core/src/geometry.c ej_lattice_site: centres at lo + (k + 1/2) s) and a site is
+    kept when it is inside the closed box, z <= 0 (ej_shape_contains), so the top layer is at -s/2
+    only when depth/s is an integer (6, 4, 3 mm); at 5 mm (84 mm deep) it is at -1.5 mm and the
+    surface at +1 mm, and when depth/s ends in .5 (150 mm at 4 mm) a layer sits on z = 0 and the
+    surface is at +s/2. The same double arithmetic as the core (lo + (k + 1/2) s, kept when <= 0):
+    before 2026-12-02 this function dropped a site on z = 0, so in the 150 mm container at 4 mm
+    the ball started inside the bed's top layer (found by the SPH bed of
+    validation/sphere_drop_methods, which blew up; `check_surface` now guards every run). Depths
+    are measured from this surface (Seguin: depth of the ball's bottom below the free surface)."""
+    k = math.floor(depth / s) + 1
+    while -depth + (k + 0.5) * s > 0:  # the core keeps a site with z <= 0
         k -= 1
     zs = -depth + (k + 0.5) * s + 0.5 * s
     return 0.0 if abs(zs) < 1e-9 * s else zs
+
+
+def check_surface(path, s, depth, set_name="bed"):
+    """The bed's top layer in the run's first frame must be the one `surface` assumed (the ball was
+    placed s/2 above it): raises RuntimeError otherwise, so that a misplaced ball cannot pass as a
+    result."""
+    z = common.read_frame(path, common.frames(path)[0], set_name)["x"][:, 2]
+    top = surface(s, depth) - 0.5 * s
+    if abs(float(np.max(z)) - top) > 1e-6 * s:
+        raise RuntimeError(f"{path}: the bed's top layer is at z = {float(np.max(z)):.6g} m, the scene assumed "
+                           f"{top:.6g} m (sphere_drop.surface): the ball was not placed s/2 above the bed")
 
 
 def beads_material(phi, damage, model="dp"):
@@ -232,6 +248,7 @@ def main():
                                 threads=a.threads, reuse=a.reuse)
         r1 = os.times()
         cpu = (r1.children_user - r0.children_user) + (r1.children_system - r0.children_system)
+        check_surface(path, s, a.depth)
         t, zc, vz, fz, mass = ball_track(path)
         pen = surface(s, a.depth) - (zc - R)  # depth of the (rigid, exact-sphere) ball's lowest point below the surface
         delta = float(np.max(pen))
