@@ -162,6 +162,25 @@ static ej_err ej_h5_attr_string(hid_t loc, const char *name, const char *s)
   return rc;
 }
 
+/* A 1-D dataset of n values (file type file_type, memory type mem_type); the write is skipped for
+ * n = 0, which leaves an empty dataset. */
+static ej_err ej_h5_put_array(hid_t loc, const char *name, hid_t file_type, hid_t mem_type, hsize_t n,
+                              const void *data)
+{
+  ej_err rc = EJ_OK;
+  hid_t space = H5Screate_simple(1, &n, NULL), dset = -1;
+  if (space < 0) goto fail;
+  dset = H5Dcreate2(loc, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (dset < 0 || (n > 0 && H5Dwrite(dset, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)) goto fail;
+  goto close_all;
+fail:
+  rc = EJ_H5_FAIL(loc, name);
+close_all:
+  if (dset >= 0) H5Dclose(dset);
+  if (space >= 0) H5Sclose(space);
+  return rc;
+}
+
 static int ej_kind_ncomp(ej_field_kind k) { return k == EJ_INT ? 1 : (int)k; }
 
 /* The first n particles of field f as dataset f->name in loc: [n] or [n][ncomp]. */
@@ -472,17 +491,10 @@ static ej_err ej_xdmf_vertices(ej_output *out, ej_idx n, char *name, size_t name
     H5Gclose(g);
   }
   if (H5Lexists(out->file, name, H5P_DEFAULT) > 0) return EJ_OK;
-  ej_err rc = EJ_OK;
   int32_t *iota = ej_malloc((size_t)n * sizeof *iota);
   EJ_ENSURE(iota, EJ_ERR_MEM, "cannot allocate the XDMF cell list of %ld points", (long)n);
   for (ej_idx i = 0; i < n; ++i) iota[i] = (int32_t)i;
-  hsize_t dims[1] = {(hsize_t)n};
-  hid_t space = H5Screate_simple(1, dims, NULL), dset = -1;
-  if (space >= 0) dset = H5Dcreate2(out->file, name, H5T_STD_I32LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  if (dset < 0 || H5Dwrite(dset, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, iota) < 0)
-    rc = EJ_H5_FAIL(out->file, name);
-  if (dset >= 0) H5Dclose(dset);
-  if (space >= 0) H5Sclose(space);
+  ej_err rc = ej_h5_put_array(out->file, name, H5T_STD_I32LE, H5T_NATIVE_INT32, (hsize_t)n, iota);
   ej_free(iota);
   return rc;
 }
@@ -658,43 +670,7 @@ ej_err ej_output_series(ej_output *out, const ej_sim *sim)
  * the checkpoint. */
 #define EJ_CP_BC_MASK "_bc_mask"
 
-static ej_err ej_checkpoint_bc_mask(hid_t g, const ej_set *s)
-{
-  ej_err rc = EJ_OK;
-  hsize_t n = (hsize_t)s->n;
-  hid_t space = H5Screate_simple(1, &n, NULL), dset = -1;
-  if (space < 0) goto fail;
-  dset = H5Dcreate2(g, EJ_CP_BC_MASK, H5T_STD_U32LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  if (dset < 0 || (n > 0 && H5Dwrite(dset, H5T_NATIVE_UINT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, s->bc_mask) < 0))
-    goto fail;
-  goto close_all;
-fail:
-  rc = EJ_H5_FAIL(g, EJ_CP_BC_MASK);
-close_all:
-  if (dset >= 0) H5Dclose(dset);
-  if (space >= 0) H5Sclose(space);
-  return rc;
-}
-
 #define EJ_CP_BONDS "_bond_flags"
-
-static ej_err ej_checkpoint_bonds(hid_t g, const ej_set *s)
-{
-  ej_err rc = EJ_OK;
-  hsize_t n = (hsize_t)s->n_bonds;
-  hid_t space = H5Screate_simple(1, &n, NULL), dset = -1;
-  if (space < 0) goto fail;
-  dset = H5Dcreate2(g, EJ_CP_BONDS, H5T_STD_U8LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  if (dset < 0 || (n > 0 && H5Dwrite(dset, H5T_NATIVE_UINT8, H5S_ALL, H5S_ALL, H5P_DEFAULT, s->bond_flags) < 0))
-    goto fail;
-  goto close_all;
-fail:
-  rc = EJ_H5_FAIL(g, EJ_CP_BONDS);
-close_all:
-  if (dset >= 0) H5Dclose(dset);
-  if (space >= 0) H5Sclose(space);
-  return rc;
-}
 
 /* Plugin instance state (ABI 1.8 save_state / load_state, EJ_MAX_STATE): a 1-D dataset of the
  * values save_state gives, none when it gives none. Sets keep theirs in their group, the
@@ -713,19 +689,7 @@ static ej_err ej_checkpoint_state(hid_t g, const char *name, ej_save_fn save, co
   EJ_ENSURE(n >= 0 && n <= EJ_MAX_STATE, EJ_ERR_INTERNAL, "%s: save_state gave %d values (0 .. %d)", who, n,
             EJ_MAX_STATE);
   if (n == 0) return EJ_OK;
-  ej_err rc = EJ_OK;
-  hsize_t len = (hsize_t)n;
-  hid_t space = H5Screate_simple(1, &len, NULL), dset = -1;
-  if (space < 0) goto fail;
-  dset = H5Dcreate2(g, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-  if (dset < 0 || H5Dwrite(dset, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) goto fail;
-  goto close_all;
-fail:
-  rc = EJ_H5_FAIL(g, name);
-close_all:
-  if (dset >= 0) H5Dclose(dset);
-  if (space >= 0) H5Sclose(space);
-  return rc;
+  return ej_h5_put_array(g, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, (hsize_t)n, buf);
 }
 
 static ej_err ej_checkpoint_interactions(hid_t cp, const ej_sim *sim)
@@ -757,8 +721,13 @@ static ej_err ej_checkpoint_set(hid_t cp, const ej_set *s)
     if (s->fields[f].flags & EJ_FIELD_SCRATCH) continue;
     EJ_TRY_GOTO(rc, ej_h5_put_field(g, &s->fields[f], s->n), close_group);
   }
-  if (s->bc_mask) EJ_TRY_GOTO(rc, ej_checkpoint_bc_mask(g, s), close_group);
-  if (s->bond_flags) EJ_TRY_GOTO(rc, ej_checkpoint_bonds(g, s), close_group);
+  if (s->bc_mask)
+    EJ_TRY_GOTO(rc, ej_h5_put_array(g, EJ_CP_BC_MASK, H5T_STD_U32LE, H5T_NATIVE_UINT32, (hsize_t)s->n, s->bc_mask),
+                close_group);
+  if (s->bond_flags)
+    EJ_TRY_GOTO(rc,
+                ej_h5_put_array(g, EJ_CP_BONDS, H5T_STD_U8LE, H5T_NATIVE_UINT8, (hsize_t)s->n_bonds, s->bond_flags),
+                close_group);
   if (s->mops && EJ_HAS_OP(s->mops, ej_method_ops, save_state))
     EJ_TRY_GOTO(rc, ej_checkpoint_state(g, EJ_CP_STATE, s->mops->save_state, s->mstate, s->mops->name), close_group);
 close_group:
