@@ -211,6 +211,9 @@ def main():
                          "rigid_body normals: true; pair: the point-to-point direction, the runs before)")
     ap.add_argument("--contact-damping", type=float, default=0.0,
                     help="kernel_contact `damping` between ball and bed (fraction of critical per pair; default 0)")
+    ap.add_argument("--mu", type=float, default=0.3,
+                    help="kernel_contact Coulomb friction between ball and beads (default 0.3; 003 gives none, "
+                         "digest 003 gap 28: diagnostic runs only)")
     ap.add_argument("--no-figures", action="store_true", help="diagnostic runs: write no figures")
     ap.add_argument("--name-tag", default="", help="suffix for the run names (diagnostic runs)")
     ap.add_argument("--earlier", default="",
@@ -236,6 +239,7 @@ def main():
                 + ("" if a.msnni_part is None else f"_{a.msnni_part[:3]}")
                 + ("" if not a.contact_damping else f"_cd{a.contact_damping:g}")
                 + ("" if a.contact_normal == "pair" else "_nbody")
+                + ("" if a.mu == 0.3 else f"_mu{a.mu:g}")
                 + ctag + a.name_tag)
         r0 = os.times()
         path, wall = common.run(exe, scene(h, s, a.t_end, a.phi, a.damage, a.width, a.depth, a.ball_modulus,
@@ -243,7 +247,7 @@ def main():
                                                   a.msnni_w, a.stabilization,
                                                   "" if a.msnni_part is None else f"\n    msnni_part: {a.msnni_part}",
                                                   beads=a.beads, contact_damping=a.contact_damping,
-                                                  contact_normal=a.contact_normal),
+                                                  contact_normal=a.contact_normal, mu=a.mu),
                                 name, a.out,
                                 threads=a.threads, reuse=a.reuse)
         r1 = os.times()
