@@ -39,6 +39,7 @@ CONTAINERS = {"narrow": (0.042, 0.084), "seguin": (0.095, 0.15)}
 # the bed's rkpm `stabilization` (the method's default is 0.1): 0 since 2026-11-29, see the docstring;
 # validation/sphere_drop_methods uses the same value for its RKPM bed
 STABILIZATION = 0.0
+MU = 0.3  # kernel_contact friction between ball and beads: ejecta's choice, 003 gives none (digest 003 gap 28)
 
 
 def uehara(h, mu=math.tan(math.radians(25)), rb=7800.0, rg=1500.0):
@@ -102,7 +103,7 @@ def beads_material(phi, damage, model="dp"):
 
 
 def scene(h, s, t_end, phi, damage, width, depth, ball_mod, sb, integration="msnni", msnni_stress="material",
-          msnni_w=0.5, stabilization=None, extra_bed="", bed=None, mu=0.3, every="0.5 ms", tag="sphere_drop",
+          msnni_w=0.5, stabilization=None, extra_bed="", bed=None, mu=MU, every="0.5 ms", tag="sphere_drop",
           header=None, beads="dp", contact_damping=0.0, contact_normal="pair"):
     """The scene; bed (the bed set's method lines) and the rest let validation/sphere_drop_methods
     put another method under the same ball, material, contact and walls."""
@@ -211,8 +212,8 @@ def main():
                          "rigid_body normals: true; pair: the point-to-point direction, the runs before)")
     ap.add_argument("--contact-damping", type=float, default=0.0,
                     help="kernel_contact `damping` between ball and bed (fraction of critical per pair; default 0)")
-    ap.add_argument("--mu", type=float, default=0.3,
-                    help="kernel_contact Coulomb friction between ball and beads (default 0.3; 003 gives none, "
+    ap.add_argument("--mu", type=float, default=MU,
+                    help=f"kernel_contact Coulomb friction between ball and beads (default {MU:g}; 003 gives none, "
                          "digest 003 gap 28: diagnostic runs only)")
     ap.add_argument("--no-figures", action="store_true", help="diagnostic runs: write no figures")
     ap.add_argument("--name-tag", default="", help="suffix for the run names (diagnostic runs)")
@@ -239,7 +240,7 @@ def main():
                 + ("" if a.msnni_part is None else f"_{a.msnni_part[:3]}")
                 + ("" if not a.contact_damping else f"_cd{a.contact_damping:g}")
                 + ("" if a.contact_normal == "pair" else "_nbody")
-                + ("" if a.mu == 0.3 else f"_mu{a.mu:g}")
+                + ("" if a.mu == MU else f"_mu{a.mu:g}")
                 + ctag + a.name_tag)
         r0 = os.times()
         path, wall = common.run(exe, scene(h, s, a.t_end, a.phi, a.damage, a.width, a.depth, a.ball_modulus,
