@@ -8,17 +8,9 @@
 #include <string.h>
 
 #include "core_impl.h"
+#include "test_rng.h"
 
 /* ------------------------------------------------------------------ helpers */
-
-static uint64_t rng_next(uint64_t *s)
-{ /* splitmix64: reproducible clouds on every platform */
-  uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-static double rng_uniform(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53; }
 
 /* n points uniform in [lo, lo + size)^dim; components >= dim get garbage the search must
  * ignore. */

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "core_impl.h"
+#include "test_rng.h"
 #include "validation_common.h"
 
 const ej_plugin_info *ej_plugin_pd_info(void);
@@ -217,14 +218,7 @@ END_TEST
 
 /* ------------------------------------------------------------------ block tests */
 
-static uint64_t rng_next(uint64_t *s)
-{
-  uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-static double rng_u(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53 - 0.5; }
+static double rng_u(uint64_t *s) { return rng_uniform(s) - 0.5; }
 
 /* side^3 lattice of spacing 1 mm, horizon 3.0001 mm, rho 2200, positions perturbed by amp lc. */
 static void block(pd_fix *f, int lps, int side, double amp, uint64_t seed)

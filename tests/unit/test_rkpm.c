@@ -12,19 +12,11 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_rng.h"
 #include "validation_common.h"
 
 const ej_plugin_info *ej_plugin_rkpm_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
-
-static uint64_t rng_next(uint64_t *s)
-{ /* splitmix64 */
-  uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-static double rng_uniform(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53; }
 
 typedef struct rk_fix {
   ej_registry *reg;

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "core_impl.h"
+#include "test_rng.h"
 #include "../../plugins/methods/sph/sph_kernels.h"
 #include "rate_sums.h"
 
@@ -14,15 +15,6 @@ const ej_plugin_info *ej_plugin_sph_info(void);
 const ej_plugin_info *ej_plugin_ideal_gas_info(void);
 
 /* ------------------------------------------------------------------ helpers */
-
-static uint64_t rng_next(uint64_t *s)
-{ /* splitmix64: the same cloud on every platform */
-  uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-static double rng_uniform(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53; }
 
 /* A set with the sph fields, an ideal-gas model and the method instance. */
 typedef struct sph_fix {

@@ -15,18 +15,10 @@
 #include <string.h>
 
 #include "core_impl.h"
+#include "test_rng.h"
 
 const ej_plugin_info *ej_plugin_sph_info(void);
 const ej_plugin_info *ej_plugin_ideal_gas_info(void);
-
-static uint64_t mask_rng(uint64_t *s)
-{ /* splitmix64 */
-  uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-static double mask_uniform(uint64_t *s) { return (double)(mask_rng(s) >> 11) * 0x1.0p-53; }
 
 static const ej_param *mask_param(const ej_param *t, const char *name)
 {
@@ -82,13 +74,13 @@ static void mask_eval(int form, int visc, ej_real h_factor, ej_real skin, mask_o
     id[i] = (int32_t)i;
     ej_idx k = i;
     for (int d = 0; d < 3; ++d) {
-      x[3 * i + d] = ((ej_real)(k % SIDE) + 0.5 + 0.2 * (mask_uniform(&seed) - 0.5)) * dx;
+      x[3 * i + d] = ((ej_real)(k % SIDE) + 0.5 + 0.2 * (rng_uniform(&seed) - 0.5)) * dx;
       k /= SIDE;
     }
-    for (int d = 0; d < 3; ++d) v[3 * i + d] = sin(3.0 * x[3 * i + d] + d) + 0.3 * mask_uniform(&seed);
+    for (int d = 0; d < 3; ++d) v[3 * i + d] = sin(3.0 * x[3 * i + d] + d) + 0.3 * rng_uniform(&seed);
     vol0[i] = dx * dx * dx;
     rho[i] = 1.0 + 0.2 * sin(5.0 * x[3 * i]);
-    e[i] = 1.0 + 0.5 * mask_uniform(&seed);
+    e[i] = 1.0 + 0.5 * rng_uniform(&seed);
     m[i] = rho[i] * vol0[i];
   }
   ck_assert_int_eq(mops->create(mcfg, set, &model, &mstate), EJ_OK);

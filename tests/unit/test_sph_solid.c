@@ -4,20 +4,12 @@
  * round-off on a jittered, pre-stressed block (with and without artificial stress and gradient
  * correction), the artificial stress acts in tension only, and the configuration checks. */
 #include "validation_common.h"
+#include "test_rng.h"
 #include "ejecta/tensor.h"
 #include "rate_sums.h"
 
 const ej_plugin_info *ej_plugin_elastic_info(void);
 const ej_plugin_info *ej_plugin_von_mises_info(void);
-
-static uint64_t rng_next(uint64_t *s)
-{ /* splitmix64 */
-  uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-static double rng_uniform(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53; }
 
 typedef struct sfix {
   ej_registry *reg;

@@ -11,19 +11,13 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "test_rng.h"
 #include "ejecta/tensor.h"
 #include "tlpd_trun.h"
 #include "test_tmpdir.h"
 
 
-static uint64_t rng_next(uint64_t *s)
-{
-  uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-static double rng_u(uint64_t *s) { return (double)(rng_next(s) >> 11) * 0x1.0p-53 - 0.5; }
+static double rng_u(uint64_t *s) { return rng_uniform(s) - 0.5; }
 
 #define MAT "materials: {m: {model: elastic, rho0: 2000, E: 1 GPa, nu: 0.25}}\n"
 
