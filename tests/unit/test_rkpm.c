@@ -12,32 +12,14 @@
 #include <unistd.h>
 
 #include "core_impl.h"
+#include "method_fix.h"
 #include "test_rng.h"
 #include "validation_common.h"
 
 const ej_plugin_info *ej_plugin_rkpm_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
 
-typedef struct rk_fix {
-  ej_registry *reg;
-  const ej_method_ops *mops;
-  const ej_material_ops *matops;
-  void *mcfg, *matcfg, *matstate, *mstate;
-  struct ej_material mat;
-  struct ej_model model;
-  ej_set *set;
-  ej_nbrlist *list;
-  int dim;
-  ej_real t, dt;
-} rk_fix;
-
-static const ej_param *find_param(const ej_param *t, const char *name)
-{
-  for (; t && t->name; ++t)
-    if (!strcmp(t->name, name)) return t;
-  ck_abort_msg("no parameter '%s'", name);
-  return NULL;
-}
+typedef method_fix rk_fix;
 
 /* Domain integration of the next fixtures: -1 = the default (msnni), else the enum index
  * (0 msnni, 1 scni_box, 2 dni). */
@@ -97,35 +79,7 @@ static void fix_start(rk_fix *f, ej_real dx)
   for (ej_idx i = 0; i < n; ++i) vol0[i] = vol, rho[i] = 1.0, m[i] = vol;
   ej_real *x = ej_set_field(f->set, "x"), *x0 = ej_set_field(f->set, "x0");
   if (x0) memcpy(x0, x, (size_t)n * 3 * sizeof *x);
-  ck_assert_int_eq(f->mops->create(f->mcfg, f->set, &f->model, &f->mstate), EJ_OK);
-  ck_assert_int_eq(f->mops->setup(f->mstate, f->set), EJ_OK);
-  ck_assert_int_eq(f->mops->support(f->mstate, f->set, (ej_range){0, n}, f->set->radius), EJ_OK);
-  ck_assert_int_eq(ej_nbrlist_build(f->list, f->dim, x, f->set->radius, n, x, f->set->radius, n, 0.0, true), EJ_OK);
-}
-
-/* One right-hand side as the core does it (zero a and rates; passes over nr ranges). */
-static void fix_compute_split(rk_fix *f, int nr)
-{
-  const ej_idx n = ej_set_count(f->set);
-  const char *zero[] = {"a", "rho_dot", "e_dot", "w_hg_dot"};
-  for (int k = 0; k < 4; ++k) memset(ej_set_field(f->set, zero[k]), 0, (size_t)n * (k ? 1 : 3) * sizeof(ej_real));
-  for (int pass = 0; pass < f->mops->n_passes; ++pass)
-    for (int h = 0; h < nr; ++h) {
-      const ej_range rg = {n * h / nr, n * (h + 1) / nr};
-      ck_assert_int_eq(f->mops->compute(f->mstate, f->set, &f->list->pub, pass, rg), EJ_OK);
-    }
-}
-static void fix_compute(rk_fix *f) { fix_compute_split(f, 3); }
-
-static void fix_close(rk_fix *f)
-{
-  if (f->mstate) f->mops->destroy(f->mstate);
-  ej_nbrlist_destroy(f->list);
-  ej_set_destroy(f->set);
-  f->matops->destroy(f->matstate);
-  ej_free(f->mcfg);
-  ej_free(f->matcfg);
-  ej_registry_destroy(f->reg);
+  mfix_start(f);
 }
 
 /* side^dim lattice points with spacing dx on [0, (side-1) dx]^dim, jittered by +-jit/2 dx. */
@@ -167,7 +121,7 @@ static void check_linear_patch(int dim, int formulation)
       for (int c = 0; c < dim; ++c) v[3 * i + r] += A[3 * r + c] * x[3 * i + c];
       vh[3 * i + r] = v[3 * i + r];
     }
-  fix_compute(&f);
+  mfix_compute(&f, 3);
   const ej_real *G = ej_set_field(f.set, "rk_gv"), *F = ej_set_field(f.set, "F");
   const ej_real *rho_dot = ej_set_field(f.set, "rho_dot");
   double err = 0, errF = 0;
@@ -185,7 +139,7 @@ static void check_linear_patch(int dim, int formulation)
   const double tol = 1e-12; /* measured: box integrations <= 3.2e-14, dni <= 4.4e-15 */
   ck_assert_msg(err < tol, "dim %d formulation %d: gradient error %g", dim, formulation, err);
   ck_assert_msg(errF < tol, "dim %d: F error %g", dim, errF);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_patch_linear_gradient)
@@ -213,7 +167,7 @@ static void check_uniform_stress(int dim)
   const ej_real s6[6] = {1.0, -0.7, 0.4, 0.3, -0.2, 0.5};
   for (ej_idx i = 0; i < n; ++i)
     for (int k = 0; k < 6; ++k) sg[6 * i + k] = s6[k];
-  fix_compute(&f);
+  mfix_compute(&f, 3);
   const ej_real *a = ej_set_field(f.set, "a"), *m = ej_set_field(f.set, "m"), *x = ej_set_field(f.set, "x");
   double P[3] = {0, 0, 0}, scale = 0, interior = 0;
   const ej_real lo = 2.0 * 1.75 * dx + 1e-9, hi = (side - 1) * dx - lo;
@@ -233,7 +187,7 @@ static void check_uniform_stress(int dim)
   ck_assert(n_in > 0 && scale > 1e-4);
   ck_assert_msg(interior < 1e-13 * scale, "interior force %g (boundary %g)", interior, scale);
   for (int d = 0; d < 3; ++d) ck_assert_msg(fabs(P[d]) < 1e-13 * scale * n, "net force %g", P[d]);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_uniform_stress)
@@ -270,8 +224,8 @@ static void msnni_run(int formulation, int nr, ej_real *a_out, ej_real *edot_out
     for (int k = 0; k < 6; ++k) sg[6 * i + k] = s6[k];
   }
   f.dt = 0.01;
-  fix_compute_split(&f, nr); /* loads the sub-box stresses */
-  fix_compute_split(&f, nr);
+  mfix_compute(&f, nr); /* loads the sub-box stresses */
+  mfix_compute(&f, nr);
   const ej_real *a = ej_set_field(f.set, "a"), *m = ej_set_field(f.set, "m"), *ed = ej_set_field(f.set, "e_dot");
   double P[3] = {0, 0, 0}, fs = 0, pw = 0, ps = 0;
   for (ej_idx i = 0; i < n; ++i) {
@@ -292,7 +246,7 @@ static void msnni_run(int formulation, int nr, ej_real *a_out, ej_real *edot_out
   double smax = 0;
   for (ej_idx i = 0; i < 9 * n; ++i) smax = fmax(smax, fabs(ss[i]));
   ck_assert_msg(smax > 0.0, "sub-box stresses not loaded");
-  fix_close(&f);
+  mfix_close(&f);
   g_integration = -1;
 }
 
@@ -333,7 +287,7 @@ static double divergence_l2(int side)
     for (int k = 0; k < 6; ++k) sg[6 * i + k] = s6[k];
   }
   f.dt = 0.0;
-  fix_compute(&f);
+  mfix_compute(&f, 3);
   const ej_real *a = ej_set_field(f.set, "a"), *m = ej_set_field(f.set, "m");
   double num = 0, den = 0;
   const double lo = 3 * 2.5 * dx, hi = 1 - lo;
@@ -349,7 +303,7 @@ static double divergence_l2(int side)
       num += (got - ex[d]) * (got - ex[d]), den += ex[d] * ex[d];
     }
   }
-  fix_close(&f);
+  mfix_close(&f);
   return sqrt(num / den);
 }
 
@@ -382,7 +336,7 @@ static double gradient_l2(int side)
     v[3 * i + 1] = vh[3 * i + 1] = cos(2 * X) * exp(Y);
     v[3 * i + 2] = vh[3 * i + 2] = 0;
   }
-  fix_compute(&f);
+  mfix_compute(&f, 3);
   const ej_real *G = ej_set_field(f.set, "rk_gv");
   double num = 0, den = 0;
   for (ej_idx i = 0; i < n; ++i) {
@@ -392,7 +346,7 @@ static double gradient_l2(int side)
     const double got[4] = {G[9 * i], G[9 * i + 1], G[9 * i + 3], G[9 * i + 4]};
     for (int k = 0; k < 4; ++k) num += (got[k] - ex[k]) * (got[k] - ex[k]) * dx * dx, den += ex[k] * ex[k] * dx * dx;
   }
-  fix_close(&f);
+  mfix_close(&f);
   return sqrt(num / den);
 }
 
@@ -417,7 +371,7 @@ START_TEST(test_moment_guard)
   ej_real *x = ej_set_field(f.set, "x"), *v = ej_set_field(f.set, "v");
   for (ej_idx i = 0; i < n; ++i) x[3 * i] = 0.1 * i, x[3 * i + 1] = 0.0, v[3 * i] = 0.3 * i;
   fix_start(&f, 0.1);
-  fix_compute(&f);
+  mfix_compute(&f, 3);
   ej_counter c[2];
   int nc = 0;
   ck_assert_int_eq(f.mops->counters(f.mstate, c, 2, &nc), EJ_OK);
@@ -429,14 +383,14 @@ START_TEST(test_moment_guard)
     for (int k = 0; k < 3; ++k) ck_assert(isfinite(a[3 * i + k]));
   }
   /* A regular 2D patch has no fallback. */
-  fix_close(&f);
+  mfix_close(&f);
   const ej_idx n2 = lattice(&f, 2, 6, 0.1, 0.0, 0, 3);
   (void)n2;
   fix_start(&f, 0.1);
-  fix_compute(&f);
+  mfix_compute(&f, 3);
   ck_assert_int_eq(f.mops->counters(f.mstate, c, 2, &nc), EJ_OK);
   ck_assert_int_eq(c[0].value, 0);
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -467,7 +421,7 @@ START_TEST(test_filament_guard)
   for (ej_idx i = 0; i < n; ++i)
     for (int d = 0; d < 3; ++d) v[3 * i + d] = vh[3 * i + d] = d < 2 ? 10.0 * (rng_uniform(&seed) - 0.5) : 0.0;
   fix_start(&f, 0.1);
-  fix_compute(&f);
+  mfix_compute(&f, 3);
   ej_counter c[2];
   int nc = 0;
   ck_assert_int_eq(f.mops->counters(f.mstate, c, 2, &nc), EJ_OK);
@@ -493,7 +447,7 @@ START_TEST(test_filament_guard)
   ck_assert_int_eq(nfil, 2 * nl);
   ck_assert_int_eq(c[0].value, 2 * nl);
   ck_assert(gmax_fil == 0.0);
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "core_impl.h"
+#include "method_fix.h"
 #include "test_rng.h"
 #include "../../plugins/methods/sph/sph_kernels.h"
 #include "rate_sums.h"
@@ -17,25 +18,8 @@ const ej_plugin_info *ej_plugin_ideal_gas_info(void);
 /* ------------------------------------------------------------------ helpers */
 
 /* A set with the sph fields, an ideal-gas model and the method instance. */
-typedef struct sph_fix {
-  ej_registry *reg;
-  const ej_method_ops *mops;
-  const ej_eos_ops *eops;
-  void *mcfg, *ecfg, *estate, *mstate;
-  struct ej_eos eos;
-  struct ej_model model;
-  ej_set *set;
-  ej_nbrlist *list;
-  int dim;
-} sph_fix;
+typedef method_fix sph_fix;
 
-static const ej_param *find_param(const ej_param *t, const char *name)
-{
-  for (; t && t->name; ++t)
-    if (!strcmp(t->name, name)) return t;
-  ck_abort_msg("no parameter '%s'", name);
-  return NULL;
-}
 static void set_real(sph_fix *f, const char *name, ej_real v)
 {
   *(ej_real *)((char *)f->mcfg + find_param(f->mops->params, name)->offset) = v;
@@ -84,43 +68,6 @@ static void fix_open(sph_fix *f, int dim, ej_idx n)
   int32_t *id = ej_set_field_int(f->set, "id");
   for (ej_idx i = 0; i < n; ++i) id[i] = (int32_t)i;
   ck_assert_int_eq(ej_nbrlist_create(&f->list), EJ_OK);
-}
-
-/* create + setup + support + neighbour list (no skin, no ghosts). */
-static void fix_start(sph_fix *f)
-{
-  ck_assert_int_eq(f->mops->create(f->mcfg, f->set, &f->model, &f->mstate), EJ_OK);
-  ck_assert_int_eq(f->mops->setup(f->mstate, f->set), EJ_OK);
-  const ej_idx n = ej_set_count(f->set);
-  ck_assert_int_eq(f->mops->support(f->mstate, f->set, (ej_range){0, n}, f->set->radius), EJ_OK);
-  const ej_real *x = ej_set_field(f->set, "x");
-  ck_assert_int_eq(ej_nbrlist_build(f->list, f->dim, x, f->set->radius, n, x, f->set->radius, n, 0.0, true), EJ_OK);
-}
-
-/* One evaluation of the right-hand side, as the core does it: zero a and rates, then the
- * passes (in two ranges, to exercise range handling). */
-static void fix_compute(sph_fix *f)
-{
-  const ej_idx n = ej_set_count(f->set);
-  const char *zero[] = {"a", "rho_dot", "e_dot", "w_visc_dot"};
-  for (int k = 0; k < 4; ++k)
-    memset(ej_set_field(f->set, zero[k]), 0, (size_t)n * (k ? 1 : 3) * sizeof(ej_real));
-  const ej_range halves[2] = {{0, n / 2}, {n / 2, n}};
-  const int np = f->mops->pass_count ? f->mops->pass_count(f->mstate) : f->mops->n_passes;
-  for (int pass = 0; pass < np; ++pass)
-    for (int h = 0; h < 2; ++h)
-      ck_assert_int_eq(f->mops->compute(f->mstate, f->set, &f->list->pub, pass, halves[h]), EJ_OK);
-}
-
-static void fix_close(sph_fix *f)
-{
-  if (f->mstate) f->mops->destroy(f->mstate);
-  ej_nbrlist_destroy(f->list);
-  ej_set_destroy(f->set);
-  f->eops->destroy(f->estate);
-  ej_free(f->mcfg);
-  ej_free(f->ecfg);
-  ej_registry_destroy(f->reg);
 }
 
 /* n^dim particles on a cubic lattice of spacing dx centred on 0; uniform rho, e; v = 0. */
@@ -228,7 +175,7 @@ START_TEST(test_params_and_ops)
   ck_assert_int_eq(f.mops->n_passes, 4);
   ck_assert_ptr_nonnull(f.mops->setup);
   ck_assert_ptr_nonnull(f.mops->counters);
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -257,8 +204,8 @@ static void check_conservation(int dim, int kernel, bool variable_h, bool correc
     vol0[i] = vol * (0.8 + 0.4 * rng_uniform(&seed));
     m[i] = rho[i] * vol0[i];
   }
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
   const ej_real *wdot = ej_set_field(f.set, "w_visc_dot");
   const rate_sums rs = rate_sums_of(n, m, v, a, edot);
@@ -274,7 +221,7 @@ static void check_conservation(int dim, int kernel, bool variable_h, bool correc
   /* Viscosity only dissipates. */
   ck_assert_msg(W > 0.0, "viscous dissipation %g", W);
   for (ej_idx i = 0; i < n; ++i) ck_assert(wdot[i] >= 0.0);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_conservation)
@@ -309,8 +256,8 @@ static void check_correction(int dim, int kernel)
       if (r < dim)
         for (int c = 0; c < dim; ++c) v[3 * i + r] += A[3 * r + c] * x[3 * i + c];
     }
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   const ej_real *rho_dot = ej_set_field(f.set, "rho_dot"), *rho = ej_set_field(f.set, "rho");
   const ej_real *h = ej_set_field(f.set, "h");
   const ej_real R = 0.5 * (side - 1) * dx;
@@ -324,7 +271,7 @@ static void check_correction(int dim, int kernel)
     ++checked;
   }
   ck_assert_int_gt(checked, 0);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_correction)
@@ -345,8 +292,8 @@ static void check_lattice(int dim, int kernel)
   set_enum(&f, "kernel", kernel);
   ej_idx centre = 0;
   for (int d = 0, stride = 1; d < dim; ++d, stride *= side) centre += (side / 2) * stride;
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   const ej_real *a = ej_set_field(f.set, "a"), *p = ej_set_field(f.set, "p");
   const ej_real *x = ej_set_field(f.set, "x");
   for (int d = 0; d < 3; ++d) ck_assert(x[3 * centre + d] == 0.0);
@@ -362,7 +309,7 @@ static void check_lattice(int dim, int kernel)
   for (ej_idx i = 0; i < n; ++i)
     for (int d = 0; d < 3; ++d) v[3 * i + d] = -eps * x[3 * i + d];
   /* renormalize: the rate is exactly dim eps rho */
-  fix_compute(&f);
+  mfix_compute(&f, 2);
   {
     const ej_real *rd = ej_set_field(f.set, "rho_dot"), *rh = ej_set_field(f.set, "rho");
     ck_assert_msg(fabs(rd[centre] / rh[centre] - dim * eps) < 1e-10 * dim * eps,
@@ -373,7 +320,7 @@ static void check_lattice(int dim, int kernel)
   *(bool *)((char *)f.mcfg + find_param(f.mops->params, "renormalize")->offset) = false;
   f.mops->destroy(f.mstate);
   ck_assert_int_eq(f.mops->create(f.mcfg, f.set, &f.model, &f.mstate), EJ_OK);
-  fix_compute(&f);
+  mfix_compute(&f, 2);
   const ej_real *rho_dot = ej_set_field(f.set, "rho_dot"), *rho = ej_set_field(f.set, "rho");
   const ej_real *m = ej_set_field(f.set, "m"), *h = ej_set_field(f.set, "h");
   double sum = 0.0;
@@ -404,7 +351,7 @@ static void check_lattice(int dim, int kernel)
   ck_assert_double_eq_tol(dt, expect, 1e-14 * expect);
   const double hf = dim == 1 ? 2.0 : dim == 2 ? 1.5 : (kernel == SPH_KERNEL_CUBIC_SPLINE ? 1.3 : 1.5);
   ck_assert_double_eq_tol(h[centre], hf * dx, 1e-12 * dx); /* h_factor 0: per-dimension default */
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_lattice)
@@ -440,7 +387,7 @@ static void check_shape_linear(int dim, int kernel)
     for (int d = 0; d < dim; ++d) x[3 * i + d] += 0.3 * dx * (rng_uniform(&seed) - 0.5);
     rho0[i] = 0.8 + 0.4 * rng_uniform(&seed); /* unequal volumes m/rho */
   }
-  fix_start(&f);
+  mfix_start(&f);
   const int32_t *fb = ej_set_field_int(f.set, "grad_fallback");
   const ej_real *Minv = ej_set_field(f.set, "M_inv"), *h = ej_set_field(f.set, "h");
   ck_assert_ptr_nonnull(fb);
@@ -458,7 +405,7 @@ static void check_shape_linear(int dim, int kernel)
         if (r < dim)
           for (int c = 0; c < dim; ++c) v[3 * i + r] += A[3 * r + c] * x[3 * i + c];
       }
-    fix_compute(&f);
+    mfix_compute(&f, 2);
     const ej_real *rho_dot = ej_set_field(f.set, "rho_dot"), *rho = ej_set_field(f.set, "rho");
     int checked = 0;
     for (ej_idx i = 0; i < n; ++i) {
@@ -497,7 +444,7 @@ static void check_shape_linear(int dim, int kernel)
       ck_assert_msg(fabs(G[k] - B[k]) < 1e-10, "dim %d kernel %d particle %d: grad[%d] %.15g, expected %.15g", dim,
                     kernel, (int)i, k, G[k], B[k]);
   }
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_shape_linear)
@@ -533,11 +480,11 @@ static void check_shape_pair(int dim)
       m[i] = vol0[i];
       e[i] = 2.0 + i;
     }
-    fix_start(&f[g]);
+    mfix_start(&f[g]);
     ck_assert_int_eq((int)f[g].list->pub.off[2], 2);
     const ej_real *a = ej_set_field(f[g].set, "a"), *ed = ej_set_field(f[g].set, "e_dot");
     for (int rep = 0; rep < 3; ++rep) {
-      fix_compute(&f[g]);
+      mfix_compute(&f[g], 2);
       if (g == 1) {
         ej_series_value sv[EJ_MAX_SERIES];
         int ns = -1;
@@ -566,7 +513,7 @@ static void check_shape_pair(int dim)
     /* 1D pair: g = w x_ij / (V w x_ij^2) = 1/(V x_ij) (the one-sided difference), not grad W */
     ck_assert(acc[1][0] != acc[0][0]);
   }
-  for (int g = 0; g < 2; ++g) fix_close(&f[g]);
+  for (int g = 0; g < 2; ++g) mfix_close(&f[g]);
 }
 
 START_TEST(test_shape_fallback)
@@ -619,14 +566,14 @@ static void shape_rates(int dim, bool symmetric, bool cloud, double *mom, double
     e[i] = 1.0 + 0.5 * rng_uniform(&seed);
     m[i] = rho[i] * vol0[i];
   }
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
   const int32_t *fb = ej_set_field_int(f.set, "grad_fallback");
   *nfb = 0;
   for (ej_idx i = 0; i < n; ++i) *nfb += fb[i];
   rate_residuals(n, m, v, a, edot, mom, en);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_shape_conservation)
@@ -676,8 +623,8 @@ static void shape_signs(int dim, bool stabilised, int *neg_visc, int *neg_cold, 
     e[i] = i % 4 == 0 ? 0.0 : 1.0 + rng_uniform(&seed);
     m[i] = rho[i] * vol0[i];
   }
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   const ej_real *wd = ej_set_field(f.set, "w_visc_dot"), *ed = ej_set_field(f.set, "e_dot");
   const ej_real *a = ej_set_field(f.set, "a");
   const int32_t *fb = ej_set_field_int(f.set, "grad_fallback");
@@ -700,7 +647,7 @@ static void shape_signs(int dim, bool stabilised, int *neg_visc, int *neg_cold, 
   }
   const double mom = sqrt(P[0] * P[0] + P[1] * P[1] + P[2] * P[2]) / Pabs, en = fabs(E) / Eabs;
   ck_assert_msg(mom < 1e-13 && en < 1e-13, "dim %d stabilised %d: momentum %g energy %g", dim, stabilised, mom, en);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_shape_stabilised)
@@ -749,8 +696,8 @@ static double shape_adiabatic_mismatch(int dim, bool sym, int cont, bool visc, i
     e[i] = 1.0 + rng_uniform(&seed);
     m[i] = rho[i] * vol0[i];
   }
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   const ej_real *ed = ej_set_field(f.set, "e_dot"), *rd = ej_set_field(f.set, "rho_dot");
   const ej_real *pr = ej_set_field(f.set, "p_rho2"), *a = ej_set_field(f.set, "a");
   const int32_t *fb = ej_set_field_int(f.set, "grad_fallback");
@@ -766,7 +713,7 @@ static double shape_adiabatic_mismatch(int dim, bool sym, int cont, bool visc, i
     worst = d > worst ? d : worst;
     scale = fabs(want) > scale ? fabs(want) : scale;
   }
-  fix_close(&f);
+  mfix_close(&f);
   return worst / scale;
 }
 
@@ -805,13 +752,13 @@ static void check_summation(int dim)
       x[3 * i + d] += 0.2 * dx * (rng_uniform(&seed) - 0.5);
       v[3 * i + d] = -50.0 * x[3 * i + d];
     }
-  fix_start(&f);
+  mfix_start(&f);
   ck_assert_int_eq(f.mops->pass_count(f.mstate), 3);
   const ej_real *h = ej_set_field(f.set, "h"), *m = ej_set_field(f.set, "m");
   ej_real h_prev[1000];
   ck_assert_int_le(n, 1000);
   memcpy(h_prev, h, (size_t)n * sizeof *h);
-  fix_compute(&f);
+  mfix_compute(&f, 2);
   const ej_real *rho = ej_set_field(f.set, "rho"), *rho_dot = ej_set_field(f.set, "rho_dot");
   const ej_nbr *nb = &f.list->pub;
   for (ej_idx i = 0; i < n; ++i) {
@@ -829,7 +776,7 @@ static void check_summation(int dim)
   ej_idx centre = 0;
   for (int d = 0, stride = 1; d < dim; ++d, stride *= side) centre += (side / 2) * stride;
   ck_assert_msg(fabs(rho[centre] / 1.3 - 1.0) < 0.05, "dim %d: centre rho %g", dim, rho[centre]);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_summation)
@@ -845,7 +792,7 @@ START_TEST(test_density_floor)
   lattice(&f, 2, 5, 0.1, 2.0, 1.0);
   set_real(&f, "rho_min", 1e-3);
   ej_real *rho = ej_set_field(f.set, "rho");
-  fix_start(&f);
+  mfix_start(&f);
   rho[3] = 0.0; /* expansion into vacuum overshot */
   rho[4] = 1e-9;
   ck_assert_int_eq(f.mops->compute(f.mstate, f.set, &f.list->pub, 0, (ej_range){0, 25}), EJ_OK);
@@ -862,7 +809,7 @@ START_TEST(test_density_floor)
   ck_assert_ptr_nonnull(ej_error_cause());
   ck_assert_ptr_nonnull(strstr(ej_error_cause()->msg, "id 7"));
   ej_error_clear();
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -889,8 +836,8 @@ static void expand_run(ej_real drho_max, ej_real t_end, double *rho_lo, double *
   ej_real *e = ej_set_field(f.set, "e"), *ed = ej_set_field(f.set, "e_dot");
   const ej_real *m = ej_set_field(f.set, "m");
   for (ej_idx i = 0; i < 3 * n; ++i) v[i] = k * x[i];
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   ej_real *vh = ej_calloc((size_t)(3 * n), sizeof *vh), *rh = ej_calloc((size_t)n, sizeof *rh);
   ej_real *eh = ej_calloc((size_t)n, sizeof *eh);
   double E0 = 0;
@@ -916,7 +863,7 @@ static void expand_run(ej_real drho_max, ej_real t_end, double *rho_lo, double *
     if (!(*rho_lo > 0)) break; /* pass 0 would floor it (or fail without a floor) */
     ck_assert_int_eq(f.mops->support(f.mstate, f.set, (ej_range){0, n}, f.set->radius), EJ_OK);
     ck_assert_int_eq(ej_nbrlist_build(f.list, 3, x, f.set->radius, n, x, f.set->radius, n, 0.0, true), EJ_OK);
-    fix_compute(&f);
+    mfix_compute(&f, 2);
     for (ej_idx i = 0; i < n; ++i) {
       for (int d = 0; d < 3; ++d) v[3 * i + d] = vh[3 * i + d] + 0.5 * dt * a[3 * i + d];
       rho[i] = rh[i] + 0.5 * dt * rd[i];
@@ -939,7 +886,7 @@ static void expand_run(ej_real drho_max, ej_real t_end, double *rho_lo, double *
       }
   }
   ej_free(vh), ej_free(rh), ej_free(eh);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_expansion_positive)
@@ -975,7 +922,7 @@ START_TEST(test_fixed_h)
   lattice(&f, 3, 3, 0.2, 1.0, 1.0);
   set_bool(&f, "variable_h", false);
   set_real(&f, "h_factor", 2.0);
-  fix_start(&f);
+  mfix_start(&f);
   ej_real *rho = ej_set_field(f.set, "rho");
   rho[0] = 8.0; /* variable h would halve */
   ck_assert_int_eq(f.mops->compute(f.mstate, f.set, &f.list->pub, 0, (ej_range){0, 27}), EJ_OK);
@@ -997,7 +944,7 @@ START_TEST(test_fixed_h)
   ck_assert_double_eq_tol(R3[1], 1.6, 1e-14);
   ck_assert_double_eq_tol(R3[2], 0.8, 1e-14);
   ck_assert(R3[3] == -1);
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -1011,7 +958,7 @@ START_TEST(test_needs_eos)
   ck_assert_ptr_null(st);
   ck_assert_ptr_nonnull(strstr(ej_error_cause()->msg, "sph needs an equation of state"));
   ej_error_clear();
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 

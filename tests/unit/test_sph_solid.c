@@ -3,6 +3,7 @@
  * stress (Hughes-Winget exactly, Jaumann to O(dt^2)), momentum and total energy rates vanish to
  * round-off on a jittered, pre-stressed block (with and without artificial stress and gradient
  * correction), the artificial stress acts in tension only, and the configuration checks. */
+#include "method_fix.h"
 #include "validation_common.h"
 #include "test_rng.h"
 #include "ejecta/tensor.h"
@@ -11,27 +12,8 @@
 const ej_plugin_info *ej_plugin_elastic_info(void);
 const ej_plugin_info *ej_plugin_von_mises_info(void);
 
-typedef struct sfix {
-  ej_registry *reg;
-  const ej_method_ops *mops;
-  const ej_material_ops *matops;
-  void *mcfg, *matcfg, *mstate, *matstate;
-  struct ej_material mat;
-  struct ej_model model;
-  ej_set *set;
-  ej_nbrlist *list;
-  ej_real *hist_store[4];
-  int dim;
-  ej_real t, dt;
-} sfix;
+typedef method_fix sfix;
 
-static const ej_param *find_param(const ej_param *t, const char *name)
-{
-  for (; t && t->name; ++t)
-    if (!strcmp(t->name, name)) return t;
-  ck_abort_msg("no parameter '%s'", name);
-  return NULL;
-}
 static void *param_ptr(const ej_param *t, void *cfg, const char *name)
 {
   return (char *)cfg + find_param(t, name)->offset;
@@ -93,45 +75,6 @@ static void fix_open(sfix *f, int dim, ej_idx n, const char *material, bool corr
   ck_assert_int_eq(ej_nbrlist_create(&f->list), EJ_OK);
 }
 
-static void fix_list(sfix *f)
-{
-  const ej_idx n = ej_set_count(f->set);
-  ck_assert_int_eq(f->mops->support(f->mstate, f->set, (ej_range){0, n}, f->set->radius), EJ_OK);
-  const ej_real *x = ej_set_field(f->set, "x");
-  ck_assert_int_eq(ej_nbrlist_build(f->list, f->dim, x, f->set->radius, n, x, f->set->radius, n, 0.0, true), EJ_OK);
-}
-
-static void fix_start(sfix *f)
-{
-  ck_assert_int_eq(f->mops->create(f->mcfg, f->set, &f->model, &f->mstate), EJ_OK);
-  ck_assert_int_eq(f->mops->setup(f->mstate, f->set), EJ_OK);
-  fix_list(f);
-}
-
-/* Zero a and rates, then every pass in two ranges. */
-static void fix_compute(sfix *f)
-{
-  const ej_idx n = ej_set_count(f->set);
-  const char *zero[] = {"a", "rho_dot", "e_dot", "w_visc_dot", "w_plastic_dot"};
-  for (int k = 0; k < 5; ++k) memset(ej_set_field(f->set, zero[k]), 0, (size_t)n * (k ? 1 : 3) * sizeof(ej_real));
-  const ej_range halves[2] = {{0, n / 2}, {n / 2, n}};
-  const int np = f->mops->pass_count(f->mstate);
-  for (int pass = 0; pass < np; ++pass)
-    for (int h = 0; h < 2; ++h)
-      ck_assert_int_eq(f->mops->compute(f->mstate, f->set, &f->list->pub, pass, halves[h]), EJ_OK);
-}
-
-static void fix_close(sfix *f)
-{
-  if (f->mstate) f->mops->destroy(f->mstate);
-  ej_nbrlist_destroy(f->list);
-  ej_set_destroy(f->set);
-  if (f->matstate) f->matops->destroy(f->matstate);
-  ej_free(f->mcfg);
-  ej_free(f->matcfg);
-  ej_registry_destroy(f->reg);
-}
-
 /* side^dim particles on a lattice of spacing dx centred on 0, optional jitter (fraction of dx). */
 static ej_idx lattice(sfix *f, int dim, int side, ej_real dx, ej_real jitter, uint64_t seed, const char *material,
                       bool correction, bool art)
@@ -172,7 +115,7 @@ START_TEST(test_stress_path)
   ej_real *x = ej_set_field(f.set, "x"), *v = ej_set_field(f.set, "v");
   const ej_real A[9] = {100.0, 30.0, -20.0, 30.0, -50.0, 40.0, -20.0, 40.0, 70.0}; /* 1/s, symmetric */
   for (ej_idx i = 0; i < n; ++i) ej_m3_apply(v + 3 * i, A, x + 3 * i);
-  fix_start(&f);
+  mfix_start(&f);
   f.dt = 2e-6;
   /* the reference point: the material alone */
   ej_real d6[6], sref[6] = {0, 0, 0, 0, 0, 0}, hst = 0.0, cref = 0.0, wp = 0.0, rho = 7800.0, e = 0.0;
@@ -184,7 +127,7 @@ START_TEST(test_stress_path)
   ck_assert_ptr_nonnull(eps_p);
   int checked = 0;
   for (int step = 0; step < 40; ++step) {
-    fix_compute(&f);
+    mfix_compute(&f, 2);
     ej_mat_batch b = {.n = 1, .dt = f.dt, .rho = &rho, .e = &e, .d = d6, .p = NULL, .stress = sref, .hist = hp,
                       .c = &cref, .w_plastic = &wp, .failed = &fl};
     ck_assert_int_eq(f.matops->update(f.matstate, &b), EJ_OK);
@@ -200,7 +143,7 @@ START_TEST(test_stress_path)
   }
   ck_assert_int_gt(checked, 0);
   ck_assert_msg(hst > 1e-4, "the path should have yielded (eps_p %g)", hst);
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -216,12 +159,12 @@ static void check_spin(int rate, ej_real jitter, bool corr)
   const ej_real om = 200.0;
   const ej_real Wm[9] = {0, -om, 0, om, 0, 0, 0, 0, 0};
   for (ej_idx i = 0; i < n; ++i) ej_m3_apply(v + 3 * i, Wm, x + 3 * i);
-  fix_start(&f);
+  mfix_start(&f);
   ej_real *sg = ej_set_field(f.set, "stress");
   const ej_real s0[6] = {-1e8, 2e7, 3e7, 4e7, 0, -1e7};
   for (ej_idx i = 0; i < n; ++i) memcpy(sg + 6 * i, s0, sizeof s0);
   f.dt = 1e-4; /* om dt = 0.02 */
-  fix_compute(&f);
+  mfix_compute(&f, 2);
   const ej_real *edot = ej_set_field(f.set, "e_dot");
   ej_real Q[9], want[6];
   ck_assert(ej_hughes_winget(Q, Wm, f.dt));
@@ -244,7 +187,7 @@ static void check_spin(int rate, ej_real jitter, bool corr)
     ++checked;
   }
   ck_assert_int_gt(checked, 0);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_objectivity)
@@ -268,12 +211,12 @@ static void check_conservation(int dim, bool corr, bool art)
   ej_real *v = ej_set_field(f.set, "v"), *m = ej_set_field(f.set, "m");
   for (ej_idx i = 0; i < n; ++i)
     for (int d = 0; d < dim; ++d) v[3 * i + d] = 20.0 * (rng_uniform(&seed) - 0.5);
-  fix_start(&f);
+  mfix_start(&f);
   ej_real *sg = ej_set_field(f.set, "stress");
   for (ej_idx i = 0; i < n; ++i)
     for (int k = 0; k < 6; ++k) sg[6 * i + k] = 2e8 * (rng_uniform(&seed) - 0.4);
   f.dt = 1e-8;
-  fix_compute(&f);
+  mfix_compute(&f, 2);
   const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
   const ej_real *wdot = ej_set_field(f.set, "w_visc_dot"), *R = ej_set_field(f.set, "art_stress");
   const rate_sums rs = rate_sums_of(n, m, v, a, edot);
@@ -297,7 +240,7 @@ static void check_conservation(int dim, bool corr, bool art)
   ck_assert(Xabs > 0);
   for (int d = 0; d < 3; ++d) ck_assert_msg(fabs(X[d]) < 1e-13 * Xabs, "XSPH momentum %g (scale %g)", X[d], Xabs);
   ck_assert_msg(art ? Rabs > 0.0 : Rabs == 0.0, "artificial stress sum %g (art %d)", Rabs, art);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_conservation)
@@ -316,7 +259,7 @@ START_TEST(test_art_stress_tension_only)
   const ej_real dx = 1e-3;
   sfix f;
   const ej_idx n = lattice(&f, 2, 12, dx, 0.0, 1u, "elastic", false, true);
-  fix_start(&f);
+  mfix_start(&f);
   ej_real *sg = ej_set_field(f.set, "stress");
   /* principal stresses +1e8 along (1,1)/sqrt2 and -2e8 along (1,-1)/sqrt2 */
   for (ej_idx i = 0; i < n; ++i) {
@@ -324,7 +267,7 @@ START_TEST(test_art_stress_tension_only)
     memcpy(sg + 6 * i, s, sizeof s);
   }
   f.dt = 1e-12; /* the elastic increment is negligible */
-  fix_compute(&f);
+  mfix_compute(&f, 2);
   const ej_real *R = ej_set_field(f.set, "art_stress"), *rho = ej_set_field(f.set, "rho");
   for (ej_idx i = 0; i < n; ++i) {
     const ej_real want = -0.3 * 1e8 / (rho[i] * rho[i]) * 0.5; /* -eps s1/rho^2 n (x) n, n = (1,1)/sqrt2 */
@@ -333,7 +276,7 @@ START_TEST(test_art_stress_tension_only)
     ck_assert_double_eq_tol(R[6 * i + 3], want, 1e-6 * fabs(want));
     ck_assert_double_eq_tol(R[6 * i + 2], 0.0, 1e-12 * fabs(want));
   }
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -355,9 +298,9 @@ static double switch_run(int sw, int mode, double *f_lo, double *f_hi)
     v[3 * i + 1] = mode ? -g * x[3 * i + 1] : 0.0;
     v[3 * i + 2] = mode ? -g * x[3 * i + 2] : 0.0;
   }
-  fix_start(&f);
+  mfix_start(&f);
   f.dt = 1e-12;
-  fix_compute(&f);
+  mfix_compute(&f, 2);
   const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
   const ej_real *wdot = ej_set_field(f.set, "w_visc_dot");
   const ej_real *fs = sw ? ej_set_field(f.set, "visc_switch") : NULL;
@@ -377,7 +320,7 @@ static double switch_run(int sw, int mode, double *f_lo, double *f_hi)
     ck_assert_msg(fabs(rs.P[d]) < 1e-13 * rs.Pabs, "switch %d mode %d: momentum rate %g (scale %g)", sw, mode, rs.P[d],
                   rs.Pabs);
   ck_assert_msg(fabs(rs.E) < 1e-12 * rs.Eabs, "switch %d mode %d: energy rate %g (scale %g)", sw, mode, rs.E, rs.Eabs);
-  fix_close(&f);
+  mfix_close(&f);
   return W;
 }
 
@@ -464,7 +407,7 @@ START_TEST(test_config)
   nomat.mat = NULL;
   ck_assert_int_ne(f.mops->create(f.mcfg, f.set, &nomat, &st), EJ_OK);
   ej_error_clear();
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 

@@ -4,6 +4,7 @@
  * periodic box stays at rest; the shape-tensor guard counts an isolated pair; density floor and
  * pressure cutoff; the strength-model path (elastic: stress increment, objectivity under a
  * rigid spin); the time step. */
+#include "method_fix.h"
 #include "validation_common.h"
 #include "test_rng.h"
 #include "ejecta/tensor.h"
@@ -14,28 +15,8 @@ const ej_plugin_info *ej_plugin_elastic_info(void);
 
 /* ------------------------------------------------------------------ helpers */
 
-typedef struct ufix {
-  ej_registry *reg;
-  const ej_method_ops *mops;
-  const ej_eos_ops *eops;
-  const ej_material_ops *matops;
-  void *mcfg, *ecfg, *estate, *mstate, *matcfg, *matstate;
-  struct ej_eos eos;
-  struct ej_material mat;
-  struct ej_model model;
-  ej_set *set;
-  ej_nbrlist *list;
-  int dim;
-  ej_real t, dt;
-} ufix;
+typedef method_fix ufix;
 
-static const ej_param *find_param(const ej_param *t, const char *name)
-{
-  for (; t && t->name; ++t)
-    if (!strcmp(t->name, name)) return t;
-  ck_abort_msg("no parameter '%s'", name);
-  return NULL;
-}
 static void set_real(ufix *f, const char *name, ej_real v)
 {
   *(ej_real *)((char *)f->mcfg + find_param(f->mops->params, name)->offset) = v;
@@ -93,47 +74,6 @@ static void fix_open(ufix *f, int dim, ej_idx n, bool elastic)
   ck_assert_int_eq(ej_nbrlist_create(&f->list), EJ_OK);
 }
 
-static void fix_list(ufix *f)
-{
-  const ej_idx n = ej_set_count(f->set);
-  ck_assert_int_eq(f->mops->support(f->mstate, f->set, (ej_range){0, n}, f->set->radius), EJ_OK);
-  const ej_real *x = ej_set_field(f->set, "x");
-  ck_assert_int_eq(ej_nbrlist_build(f->list, f->dim, x, f->set->radius, n, x, f->set->radius, n, 0.0, true), EJ_OK);
-}
-
-static void fix_start(ufix *f)
-{
-  ck_assert_int_eq(f->mops->create(f->mcfg, f->set, &f->model, &f->mstate), EJ_OK);
-  ck_assert_int_eq(f->mops->setup(f->mstate, f->set), EJ_OK);
-  fix_list(f);
-}
-
-/* Zero a and rates, then both passes in two ranges (range handling). */
-static void fix_compute(ufix *f)
-{
-  const ej_idx n = ej_set_count(f->set);
-  const char *zero[] = {"a", "rho_dot", "e_dot", "w_visc_dot", "w_plastic_dot"};
-  for (int k = 0; k < 5; ++k) memset(ej_set_field(f->set, zero[k]), 0, (size_t)n * (k ? 1 : 3) * sizeof(ej_real));
-  const ej_range halves[2] = {{0, n / 2}, {n / 2, n}};
-  const int np = f->mops->pass_count ? f->mops->pass_count(f->mstate) : f->mops->n_passes;
-  for (int pass = 0; pass < np; ++pass)
-    for (int h = 0; h < 2; ++h)
-      ck_assert_int_eq(f->mops->compute(f->mstate, f->set, &f->list->pub, pass, halves[h]), EJ_OK);
-}
-
-static void fix_close(ufix *f)
-{
-  if (f->mstate) f->mops->destroy(f->mstate);
-  ej_nbrlist_destroy(f->list);
-  ej_set_destroy(f->set);
-  f->eops->destroy(f->estate);
-  if (f->matstate) f->matops->destroy(f->matstate);
-  ej_free(f->mcfg);
-  ej_free(f->ecfg);
-  ej_free(f->matcfg);
-  ej_registry_destroy(f->reg);
-}
-
 /* side^dim particles on a lattice of spacing dx centred on 0, optional jitter (fraction of dx). */
 static ej_idx lattice(ufix *f, int dim, int side, ej_real dx, ej_real rho, ej_real e, ej_real jitter, bool elastic,
                       uint64_t seed)
@@ -178,7 +118,7 @@ START_TEST(test_params_and_ops)
   const ej_plugin_info *info = ej_plugin_ulpd_info();
   ck_assert_str_eq(info->name, "ulpd");
   ck_assert_str_eq(info->build_signature, EJ_BUILD_SIGNATURE);
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -205,8 +145,8 @@ static void check_linear(int dim, bool variable)
       if (r < dim)
         for (int c = 0; c < dim; ++c) v[3 * i + r] += A[3 * r + c] * x[3 * i + c];
     }
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   const ej_real *L = ej_set_field(f.set, "vel_grad"), *delta = ej_set_field(f.set, "delta");
   const ej_real *rho_dot = ej_set_field(f.set, "rho_dot"), *rho = ej_set_field(f.set, "rho");
   const ej_real *wdot = ej_set_field(f.set, "w_visc_dot"), *q = ej_set_field(f.set, "q");
@@ -233,7 +173,7 @@ static void check_linear(int dim, bool variable)
     ++checked;
   }
   ck_assert_msg(checked >= (dim == 3 ? 8 : 20), "dim %d: only %d interior particles", dim, checked);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_linear_field)
@@ -267,8 +207,8 @@ static void check_conservation(int dim)
     vol0[i] = vol * (0.8 + 0.4 * rng_uniform(&seed));
     m[i] = rho[i] * vol0[i];
   }
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
   const ej_real *wdot = ej_set_field(f.set, "w_visc_dot");
   const rate_sums rs = rate_sums_of(n, m, v, a, edot);
@@ -296,8 +236,8 @@ static void check_conservation(int dim)
       rho[i] += dt * re[i];
       e[i] += dt * ed[i];
     }
-    fix_list(&f);
-    fix_compute(&f);
+    mfix_list(&f);
+    mfix_compute(&f, 2);
     for (ej_idx i = 0; i < n; ++i)
       for (int d = 0; d < 3; ++d) v[3 * i + d] += 0.5 * dt * a[3 * i + d];
   }
@@ -306,7 +246,7 @@ static void check_conservation(int dim)
     for (int d = 0; d < 3; ++d) P1[d] += m[i] * v[3 * i + d], Pscale += fabs(m[i] * v[3 * i + d]);
   for (int d = 0; d < 3; ++d)
     ck_assert_msg(fabs(P1[d] - P0[d]) < 1e-13 * Pscale, "dim %d: momentum %.17g -> %.17g", dim, P0[d], P1[d]);
-  fix_close(&f);
+  mfix_close(&f);
 }
 
 START_TEST(test_conservation)
@@ -327,8 +267,8 @@ START_TEST(test_isolated_pair)
     x[3 * i] = 0.1 * i, x[3 * i + 1] = 0.05 * i, x[3 * i + 2] = 0;
     vol0[i] = 1e-3, rho[i] = 1.0, m[i] = 1e-3, e[i] = 2.5;
   }
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   const ej_real *a = ej_set_field(f.set, "a");
   const int32_t *fb = ej_set_field_int(f.set, "shape_fallbacks");
   ck_assert_int_eq(fb[0], 1);
@@ -352,11 +292,11 @@ START_TEST(test_isolated_pair)
   ck_assert_double_eq(sv[0].value, 2.0);
   /* A particle with no bond at all: no force, counted, no NaN. */
   x[3] = 10.0;
-  fix_list(&f);
-  fix_compute(&f);
+  mfix_list(&f);
+  mfix_compute(&f, 2);
   ck_assert(a[0] == 0.0 && a[3] == 0.0);
   ck_assert_int_eq(fb[0], 2);
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -366,12 +306,12 @@ START_TEST(test_floors)
   ufix f;
   lattice(&f, 2, 7, 0.1, 2.0, 1.0, 0.0, false, 1u);
   set_real(&f, "rho_min", 1e-3);
-  fix_start(&f);
+  mfix_start(&f);
   ej_real *rho = ej_set_field(f.set, "rho"), *e = ej_set_field(f.set, "e");
   rho[3] = 0.0;
   rho[4] = -1e-9;
   e[10] = -5.0; /* overshoot of an expansion: ideal-gas p < 0 */
-  fix_compute(&f);
+  mfix_compute(&f, 2);
   ck_assert_double_eq_tol(rho[3], 2e-3, 1e-15);
   ck_assert_double_eq_tol(rho[4], 2e-3, 1e-15);
   const ej_real *p = ej_set_field(f.set, "p"), *a = ej_set_field(f.set, "a");
@@ -388,7 +328,7 @@ START_TEST(test_floors)
   ck_assert_int_eq(f.mops->compute(f.mstate, f.set, &f.list->pub, 0, (ej_range){0, 49}), EJ_ERR_NUMERIC);
   ck_assert_ptr_nonnull(strstr(ej_error_cause()->msg, "id 7"));
   ej_error_clear();
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -404,9 +344,9 @@ START_TEST(test_elastic)
   ej_real *x = ej_set_field(f.set, "x"), *v = ej_set_field(f.set, "v"), *sg = ej_set_field(f.set, "stress");
   const ej_real A[9] = {1.0, 0.3, -0.2, 0.1, -0.5, 0.4, 0.0, 0.2, 0.7};
   for (ej_idx i = 0; i < n; ++i) ej_m3_apply(v + 3 * i, A, x + 3 * i);
-  fix_start(&f);
+  mfix_start(&f);
   f.dt = 1e-6;
-  fix_compute(&f);
+  mfix_compute(&f, 2);
   const ej_real *delta = ej_set_field(f.set, "delta"), *c = ej_set_field(f.set, "c");
   const ej_real R = 0.5 * 10 * dx;
   ej_real D[6];
@@ -436,7 +376,7 @@ START_TEST(test_elastic)
     memcpy(sg + 6 * i, s0, sizeof s0);
   }
   f.dt = 1e-4;
-  fix_compute(&f);
+  mfix_compute(&f, 2);
   const ej_real *edot = ej_set_field(f.set, "e_dot");
   ej_real Q[9], want[6];
   ck_assert(ej_hughes_winget(Q, Wm, f.dt));
@@ -453,7 +393,7 @@ START_TEST(test_elastic)
     ++checked;
   }
   ck_assert_int_gt(checked, 0);
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -467,7 +407,7 @@ START_TEST(test_needs_model)
   ck_assert_ptr_null(st);
   ck_assert_ptr_nonnull(strstr(ej_error_cause()->msg, "ulpd needs an equation of state"));
   ej_error_clear();
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
@@ -476,15 +416,15 @@ START_TEST(test_stable_dt)
 {
   ufix f;
   const ej_idx n = lattice(&f, 3, 7, 0.02, 1.2, 2.0e5, 0.0, false, 3u);
-  fix_start(&f);
-  fix_compute(&f);
+  mfix_start(&f);
+  mfix_compute(&f, 2);
   const ej_real *c = ej_set_field(f.set, "c");
   const ej_idx centre = n / 2;
   ej_real dt;
   ck_assert_int_eq(f.mops->stable_dt(f.mstate, f.set, (ej_range){centre, centre + 1}, &dt), EJ_OK);
   ck_assert_double_eq_tol(dt, 0.02 / (c[centre] * 1.1), 1e-12 * dt);
   ck_assert_double_eq_tol(c[centre], sqrt(1.4 * 0.4 * 2.0e5), 1e-9);
-  fix_close(&f);
+  mfix_close(&f);
 }
 END_TEST
 
