@@ -191,19 +191,8 @@ static void check_conservation(int dim, int kernel, bool variable_h, bool correc
   set_bool(&f, "correction", correction);
   ck_assert_int_eq(ej_decl_probe(f.mops, f.mcfg, f.set), EJ_OK); /* correction adds fields */
   uint64_t seed = 12345u + (uint64_t)(dim * 10 + kernel);
-  ej_real *x = ej_set_field(f.set, "x"), *v = ej_set_field(f.set, "v"), *m = ej_set_field(f.set, "m");
-  ej_real *vol0 = ej_set_field(f.set, "vol0"), *rho = ej_set_field(f.set, "rho"), *e = ej_set_field(f.set, "e");
-  const ej_real vol = 1.0 / n;
-  for (ej_idx i = 0; i < n; ++i) {
-    for (int d = 0; d < 3; ++d) {
-      x[3 * i + d] = d < dim ? rng_uniform(&seed) : 0.0;
-      v[3 * i + d] = d < dim ? 2.0 * rng_uniform(&seed) - 1.0 : 0.0;
-    }
-    rho[i] = 0.5 + rng_uniform(&seed);
-    e[i] = 1.0 + 2.0 * rng_uniform(&seed);
-    vol0[i] = vol * (0.8 + 0.4 * rng_uniform(&seed));
-    m[i] = rho[i] * vol0[i];
-  }
+  mfix_random_gas(&f, dim, &seed);
+  const ej_real *v = ej_set_field(f.set, "v"), *m = ej_set_field(f.set, "m");
   mfix_start(&f);
   mfix_compute(&f, 2);
   const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");

@@ -194,19 +194,9 @@ static void check_conservation(int dim)
   ufix f;
   fix_open(&f, dim, n, false);
   uint64_t seed = 2024u + (uint64_t)dim;
+  mfix_random_gas(&f, dim, &seed);
   ej_real *x = ej_set_field(f.set, "x"), *v = ej_set_field(f.set, "v"), *m = ej_set_field(f.set, "m");
-  ej_real *vol0 = ej_set_field(f.set, "vol0"), *rho = ej_set_field(f.set, "rho"), *e = ej_set_field(f.set, "e");
-  const ej_real vol = 1.0 / n;
-  for (ej_idx i = 0; i < n; ++i) {
-    for (int d = 0; d < 3; ++d) {
-      x[3 * i + d] = d < dim ? rng_uniform(&seed) : 0.0;
-      v[3 * i + d] = d < dim ? 2.0 * rng_uniform(&seed) - 1.0 : 0.0;
-    }
-    rho[i] = 0.5 + rng_uniform(&seed);
-    e[i] = 1.0 + 2.0 * rng_uniform(&seed);
-    vol0[i] = vol * (0.8 + 0.4 * rng_uniform(&seed));
-    m[i] = rho[i] * vol0[i];
-  }
+  ej_real *rho = ej_set_field(f.set, "rho"), *e = ej_set_field(f.set, "e");
   mfix_start(&f);
   mfix_compute(&f, 2);
   const ej_real *a = ej_set_field(f.set, "a"), *edot = ej_set_field(f.set, "e_dot");
