@@ -180,13 +180,7 @@ static const char scene_uniform[] =
 
 static const double uni_p0 = 1e8 * 0.001; /* C1 mu */
 
-static ej_set *prun_set(prun *c, const char *name)
-{
-  for (int k = 0; k < c->r.sim->n_sets; ++k)
-    if (strcmp(ej_set_name(c->r.sim->sets[k]), name) == 0) return c->r.sim->sets[k];
-  ck_abort_msg("no set %s", name);
-  return NULL;
-}
+static ej_set *prun_set(prun *c, const char *name) { return vsim_set(c->r.sim, name); }
 
 static void prun_uniform_x(prun *c, int steps, const char *form, const char *rock_extra)
 {

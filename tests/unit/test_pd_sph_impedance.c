@@ -32,13 +32,7 @@ static ej_err imp_open(vscene *c, const char *fmt, ...)
   return rc;
 }
 
-static ej_set *imp_set(vscene *c, const char *name)
-{
-  for (int k = 0; k < c->r.sim->n_sets; ++k)
-    if (strcmp(ej_set_name(c->r.sim->sets[k]), name) == 0) return c->r.sim->sets[k];
-  ck_abort_msg("no set %s", name);
-  return NULL;
-}
+static ej_set *imp_set(vscene *c, const char *name) { return vsim_set(c->r.sim, name); }
 
 /* Runs one case; returns T and R relative to the exact incident stress -Z1 v0 / 2. */
 static void imp_case_dx(double rho2, double K2, const char *pair_stress, double dx, double fluid_h, double hg_coef,

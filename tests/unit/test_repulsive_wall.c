@@ -39,13 +39,7 @@ static ej_err rw_open(vscene *c, const char *fmt, ...)
   return rc;
 }
 
-static ej_set *rw_set(vscene *c, const char *name)
-{
-  for (int s = 0; s < c->r.sim->n_sets; ++s)
-    if (!strcmp(c->r.sim->sets[s]->name, name)) return c->r.sim->sets[s];
-  ck_abort_msg("no set %s", name);
-  return NULL;
-}
+static ej_set *rw_set(vscene *c, const char *name) { return vsim_set(c->r.sim, name); }
 
 /* One SPH particle at (x0, y0), rho0 1000, h = 2 DP, a row of 11 boundary particles at y = 0,
  * x = -5 DP ... 5 DP (rho0 1000: m_w = m_i). */

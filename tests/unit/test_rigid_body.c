@@ -55,13 +55,7 @@ static void rb_close(rb_run *R)
   vscene_free(&R->v);
 }
 
-static ej_set *rb_set(const rb_run *R, const char *name)
-{
-  for (int k = 0; k < R->sim->n_sets; ++k)
-    if (!strcmp(ej_set_name(R->sim->sets[k]), name)) return R->sim->sets[k];
-  ck_abort_msg("no set %s", name);
-  return NULL;
-}
+static ej_set *rb_set(const rb_run *R, const char *name) { return vsim_set(R->sim, name); }
 
 /* Max over pairs (i, j) of | |x_i - x_j| - |x0_i - x0_j| |, pairs matched by id. */
 static double rb_pair_dist_err(const ej_set *s, const double *x0, const int32_t *id0)

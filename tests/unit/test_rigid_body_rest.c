@@ -35,13 +35,7 @@ static ej_err rr_vopen(vscene *c, const ej_plugin_info *const *p, int np, const 
   return rc;
 }
 
-static ej_set *rr_set(ej_sim *sim, const char *name)
-{
-  for (int k = 0; k < sim->n_sets; ++k)
-    if (!strcmp(ej_set_name(sim->sets[k]), name)) return sim->sets[k];
-  ck_abort_msg("no set %s", name);
-  return NULL;
-}
+static ej_set *rr_set(ej_sim *sim, const char *name) { return vsim_set(sim, name); }
 
 /* Highest ball-centre z at which some ball point is at the contact distance from some bed point
  * (ball coming down vertically): the resting height of a ball under a load that is negligible

@@ -58,13 +58,7 @@ static void rb_close(rb_run *R)
   vscene_free(&R->v);
 }
 
-static ej_set *rb_set(const rb_run *R, const char *name)
-{
-  for (int k = 0; k < R->sim->n_sets; ++k)
-    if (!strcmp(ej_set_name(R->sim->sets[k]), name)) return R->sim->sets[k];
-  ck_abort_msg("no set %s", name);
-  return NULL;
-}
+static ej_set *rb_set(const rb_run *R, const char *name) { return vsim_set(R->sim, name); }
 
 START_TEST(test_perforation)
 {

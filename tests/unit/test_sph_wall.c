@@ -79,13 +79,7 @@ static void wrun_go(wrun *c)
   ck_assert_int_eq(rc, EJ_OK);
 }
 
-static ej_set *wrun_set(wrun *c, const char *name)
-{
-  for (int s = 0; s < c->r.sim->n_sets; ++s)
-    if (!strcmp(c->r.sim->sets[s]->name, name)) return c->r.sim->sets[s];
-  ck_abort_msg("no set %s", name);
-  return NULL;
-}
+static ej_set *wrun_set(wrun *c, const char *name) { return vsim_set(c->r.sim, name); }
 
 /* Water-like liquid: rho0 1000, p = K (rho/rho0 - 1), K = 2e5 Pa (c = 14 m/s, 10 sqrt(g H)). */
 #define W_RHO0 1000.0

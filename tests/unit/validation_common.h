@@ -79,6 +79,15 @@ static inline void vrun_free(vrun *r)
   memset(r, 0, sizeof *r);
 }
 
+/* The set called name in a sim (aborts the test when there is none). */
+static inline ej_set *vsim_set(const ej_sim *sim, const char *name)
+{
+  for (int k = 0; k < sim->n_sets; ++k)
+    if (!strcmp(ej_set_name(sim->sets[k]), name)) return sim->sets[k];
+  ck_abort_msg("no set %s", name);
+  return NULL;
+}
+
 /* The scene at path (sph and ideal_gas plugins) loads, and `ejecta check` (ej_sim_create with
  * check_only) refuses it as bad input: a message containing msg, at line:col. */
 static inline void vrun_check_refuses(const char *path, const char *msg, int line, int col)
