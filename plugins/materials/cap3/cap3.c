@@ -21,7 +21,8 @@
  *   R_A = sigma_A - sigma_A^tr + dlambda a^e_AB dg/dsigma_B, R_4 = f, with the internal variables
  * (rows 4-5 of Eq 86) eliminated exactly: the plastic strain increment is the elastic compliance
  * of sigma^tr - sigma. Newton with the analytic Jacobian (cap3_math.h) plus one forward
- * difference per internal-variable scalar that varies; tension-tip (I1 = Xi) and cap-tip (I1 = X)
+ * difference per internal-variable scalar that varies; tension-tip (I1 = c3_tip_I1: Xi, or 2C/M - Xi
+ * when C < M Xi) and cap-tip (I1 = X)
  * hydrostatic returns; a radial fallback (counted). Elastic points are found from the invariants.
  * Duvaut-Lions overstress (not given in the report; erratum item 17; Simo & Hughes 1998):
  *   sigma = sigma^tr + theta (sigma_qs - sigma^tr), q = q_n + theta (q_qs - q_n). */
@@ -62,8 +63,9 @@ static const char *const c3_hist_names[] = {"cap_kappa", "cap_gamma", "eps_v_p",
 #define C3_P(f, unit, def, flags, doc) EJ_PARAM_REAL(c3_config, f, unit, def, 0, 0, flags, doc)
 static const ej_param c3_params[] = {
     MP_ELASTIC_PARAMS(c3_config),
-    EJ_PARAM_REAL(c3_config, psi, "1", 0.8, 0.5, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
-                  "Triaxial extension/compression strength ratio of the Gudehus function (003 Eq 61, Table 2)."),
+    EJ_PARAM_REAL(c3_config, psi, "1", 0.8, 7.0 / 9.0, 1, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
+                  "Triaxial extension/compression strength ratio of the Gudehus function (003 Eq 61, Table 2); at least "
+                  "7/9, below which that surface is not convex."),
     C3_P(R, "1", 1.0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Cap aspect ratio R (003 Eq 59)."),
     C3_P(R_g, "1", 1.0, EJ_PF_HAS_MIN | EJ_PF_MIN_OPEN, "Cap aspect ratio of the plastic potential (003 Eq 81)."),
     EJ_PARAM_REAL(c3_config, kappa0, "Pa", -50e6, 0, 0, EJ_PF_HAS_MAX, "Initial cap branch point kappa_0 (an I1 value)."),
