@@ -24,6 +24,7 @@ const ej_plugin_info *ej_plugin_tlpd_info(void);
 const ej_plugin_info *ej_plugin_elastic_info(void);
 const ej_plugin_info *ej_plugin_polynomial_info(void);
 const ej_plugin_info *ej_plugin_continuum_info(void);
+const ej_plugin_info *ej_plugin_ulpd_info(void);
 
 typedef vscene prun;
 
@@ -32,10 +33,10 @@ static ej_err prun_try(prun *c, const char *fmt, ...)
 {
   const ej_plugin_info *p[] = {ej_plugin_sph_info(),     ej_plugin_ideal_gas_info(), ej_plugin_pd_sph_info(),
                                ej_plugin_tlpd_info(),    ej_plugin_elastic_info(),   ej_plugin_polynomial_info(),
-                               ej_plugin_continuum_info()};
+                               ej_plugin_continuum_info(), ej_plugin_ulpd_info()};
   va_list ap;
   va_start(ap, fmt);
-  ej_err rc = vscene_open(c, "pdsph", p, 7, fmt, ap);
+  ej_err rc = vscene_open(c, "pdsph", p, 8, fmt, ap);
   va_end(ap);
   return rc;
 }
@@ -536,6 +537,60 @@ START_TEST(test_shape_tensor_share)
 }
 END_TEST
 
+/* A coupling reads its partner's stress and sound speed at the partner's mirror images too
+ * (2026-12-02: tlpd's stress and c and ulpd's stress were not ghosted, so next to a symmetry plane
+ * the images carried sigma = 0 and c = 0). A layered 2D scene between two symmetry planes y = 0
+ * and y = 20 mm, uniform in y: solid (or gas) x < 30 mm, water (or gas) beyond, one step; the
+ * acceleration of the SPH column next to the interface must not depend on y. */
+static const char scene_images[] =
+    "ejecta: 1\ndimension: 2\ntime: {end: 1.0, cfl: 0.3, max_steps: 1}\noutput: {file: out.h5}\n"
+    "materials:\n  rock: {model: elastic, rho0: 2000, E: 1e9, nu: 0.25}\n"
+    "  water: {rho0: 1001, eos: {model: polynomial, rho0: 1000, C1: 1e8}}\n"
+    "  gas: {rho0: 1.0, eos: {model: ideal_gas, gamma: 1.4}}\n"
+    "sets:\n"
+    "  left: {%s, shape: {box: {min: [0, 0], max: [0.03, 0.02]}}, spacing: 0.001}\n"
+    "  right: {method: sph, %s, renormalize: false, shape: {box: {min: [0.03, 0], max: [0.06, 0.02]}}, spacing: 0.001}\n"
+    "interactions:\n  - {model: %s, sets: [right, left]%s}\n"
+    "boundaries:\n  - symmetry: {point: [0, 0], normal: [0, 1]}\n  - symmetry: {point: [0, 0.02], normal: [0, -1]}\n";
+
+/* (max - min) of a_x over the right set's first column, over |a_x| of one particle of it */
+static double images_spread(const char *left, const char *right, const char *model, const char *extra)
+{
+  prun c;
+  ck_assert_int_eq(prun_try(&c, scene_images, left, right, model, extra), EJ_OK);
+  vrun_run(&c.r);
+  ej_set *w = prun_set(&c, "right");
+  const ej_real *x = ej_set_field(w, "x"), *a = ej_set_field(w, "a");
+  double ax[64];
+  int n = 0;
+  for (ej_idx i = 0; i < w->n && n < 64; ++i) /* the column at x = 30.5 mm (one step moves it by < 1e-5 m) */
+    if (x[3 * i] < 0.031) ax[n++] = a[3 * i];
+  ck_assert_int_eq(n, 20);
+  double lo = ax[0], hi = ax[0], mid = ax[n / 2]; /* ax in y order of the lattice */
+  for (int k = 1; k < n; ++k) lo = fmin(lo, ax[k]), hi = fmax(hi, ax[k]);
+  prun_free(&c);
+  ck_assert(fabs(mid) > 0);
+  return (hi - lo) / fabs(mid);
+}
+
+START_TEST(test_images_carry_stress)
+{
+  const char *rock = "method: tlpd, material: rock, initial_stress: {uniform: [-1e5, -1e5, -1e5, 0, 0, 0]}";
+  const double both = images_spread(rock, "material: water", "pd_sph", ", pair_stress: both");
+  const double owned = images_spread(rock, "material: water", "pd_sph", ", pair_weight: kernel");
+  const double gas = images_spread("method: ulpd, material: gas, p: 1e5", "material: gas, p: 1e5", "continuum",
+                                   ", alpha: 0, beta: 0");
+  fprintf(stderr,
+          "coupling next to symmetry planes, spread of a_x over the interface column / |a_x|: pd_sph both %.2e, "
+          "owned (kernel weight) %.2e, continuum ulpd-sph gas %.2e\n",
+          both, owned, gas);
+  /* before the fix (tlpd stress and c, ulpd stress not ghosted): 27, 0.15 and 168 */
+  ck_assert_double_lt(both, 1e-9);
+  ck_assert_double_lt(owned, 1e-9);
+  ck_assert_double_lt(gas, 1e-9);
+}
+END_TEST
+
 static Suite *pd_sph_suite(void)
 {
   Suite *s = suite_create("pd_sph");
@@ -550,6 +605,7 @@ static Suite *pd_sph_suite(void)
   tcase_add_test(tc, test_continuity_dilatation);
   tcase_add_test(tc, test_renormalize_interfaces);
   tcase_add_test(tc, test_shape_tensor_share);
+  tcase_add_test(tc, test_images_carry_stress);
   suite_add_tcase(s, tc);
   return s;
 }

@@ -379,8 +379,9 @@ static ej_err tlpd_declare(const void *config, int dim, ej_decl *d)
   const tlpd_config *cfg = config;
   EJ_ENSURE(dim >= 1 && dim <= 3, EJ_ERR_ARG, "tlpd: dimension %d not in 1..3", dim);
   const ej_field_decl fields[] = {
-      {.name = "stress", .kind = EJ_SYM6, .flags = EJ_FIELD_OUTPUT | EJ_FIELD_NO_GHOST, .unit = "Pa",
-       .doc = "Cauchy stress."},
+      /* stress and c are ghosted: tlpd's own loops do not read them at images, but a coupling does
+       * (continuum, pd_sph: a partner's mirror and periodic images sit in its lists) */
+      {.name = "stress", .kind = EJ_SYM6, .flags = EJ_FIELD_OUTPUT, .unit = "Pa", .doc = "Cauchy stress."},
       {.name = "F", .kind = EJ_TENSOR9, .flags = cfg->output_F ? EJ_FIELD_OUTPUT : 0u, .unit = "1",
        .doc = "Nonlocal deformation gradient N K^-1 (checkpointed: the next step differences it)."},
       {.name = "PK", .kind = EJ_TENSOR9, .flags = EJ_FIELD_SCRATCH, .unit = "Pa/m^2",
@@ -405,7 +406,7 @@ static ej_err tlpd_declare(const void *config, int dim, ej_decl *d)
        .doc = "0 correspondence, 1 spring fallback (singular K), 2 detached (no intact bond)."},
       {.name = "pd_coef", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "Pa/m^2",
        .doc = "Hourglass coefficient (or the spring constant of the fallback)."},
-      {.name = "c", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "m/s",
+      {.name = "c", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "m/s",
        .doc = "Sound speed from the material."},
       {.name = "pd_hsum", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "1/m",
        .doc = "Sum of the norms of the row's gradient weights |w V K^-1 X| (stable step)."},

@@ -154,7 +154,8 @@ static ej_err ulpd_declare(const void *config, int dim, ej_decl *d)
               "coupling kernel of support 2h reaches as far as the family and follows the current spacing."},
       {.name = "q", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "Pa",
        .doc = "Artificial viscous pressure (002 Eq 42-44, viscous-pressure form)."},
-      {.name = "stress", .kind = EJ_SYM6, .flags = EJ_FIELD_OUTPUT | EJ_FIELD_NO_GHOST, .unit = "Pa",
+      /* ghosted: a coupling (continuum, pd_sph) reads it at this set's mirror and periodic images */
+      {.name = "stress", .kind = EJ_SYM6, .flags = EJ_FIELD_OUTPUT, .unit = "Pa",
        .doc = "Cauchy stress without the artificial viscosity (fluids: -p I)."},
       {.name = "w_visc", .kind = EJ_SCALAR, .flags = EJ_FIELD_NO_GHOST, .unit = "J/kg", .rate = "w_visc_dot",
        .energy = EJ_ENERGY_VISCOUS,
