@@ -113,7 +113,8 @@ static const ej_param sph_params[] = {
                   "With gradient: shape_tensor: symmetric, G_ij = (g_i + g_j)/2 in the momentum and energy "
                   "equations (equal and opposite pair forces: momentum and energy conserved to round-off); "
                   "paper, G_ij = g_i = w_ij M_i^-1 x_ij as printed (000 Eqs 35-36), which conserves neither "
-                  "exactly. The continuity equation uses g_i in both."),
+                  "exactly. The continuity equation uses g_i with paper and, with symmetric, what shape_continuity says "
+                  "(default G_ij)."),
     EJ_PARAM_ENUM(sph_config, shape_viscosity, sph_shape_visc_names, "kernel",
                   "With gradient: shape_tensor, shape_form: symmetric: the gradient of the Monaghan viscosity "
                   "term, kernel (grad_i W_ij along the line of centres: the viscous heating of every pair is "
@@ -179,7 +180,8 @@ static const ej_param sph_params[] = {
     EJ_PARAM_REAL(sph_config, art_eps, "1", 0.3, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "Artificial-stress coefficient epsilon: R = -epsilon sigma'/rho^2 for principal tension."),
     EJ_PARAM_REAL(sph_config, art_n, "1", 4.0, 1.0, 16.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
-                  "Artificial-stress exponent n of f_ij = W(r_ij)/W(dx), dx the initial spacing."),
+                  "Artificial-stress exponent n of f_ij = W(r_ij)/W(dx), dx = hbar/h_factor: the current local spacing "
+                  "with variable_h (the initial one with constant h)."),
     EJ_PARAM_REAL(sph_config, xsph, "1", 0.0, 0.0, 1.0, EJ_PF_HAS_MIN | EJ_PF_HAS_MAX,
                   "With strength: XSPH coefficient epsilon (Monaghan 1989): after each step the particles move by "
                   "dt eps sum_j (m_j/rhobar_ij) (v_j - v_i) W_ij on top of the integrator; 0 is off."),
@@ -986,7 +988,7 @@ static inline SPH_ALWAYS_INLINE void sph_row_store(const sph_pair_args *A, ej_id
  * section 3) and momentum is conserved to round-off; the energy equation is the matching
  * one, so sum_i m_i (v_i.a_i + de_i/dt) = 0 exactly for the semi-discrete system.
  *   drho_i/dt = sum_j m_j (v_i - v_j).grad_i W_ij                                  (000 Eq 22)
- *     or, by default, rho_i sum_j (m_j/rho_j) (v_i - v_j).grad_i W_ij: the same continuum
+ *     or (continuity: volume) rho_i sum_j (m_j/rho_j) (v_i - v_j).grad_i W_ij: the same continuum
  *     equation (d ln rho/dt = -div v) with a rate proportional to rho_i, so that rho never
  *     reaches 0 in an expansion into vacuum. With Eq 22 a particle of the Sedov core reaches
  *     the density floor, where p/rho^2 collapses the time step (125k-particle octant,
@@ -1528,7 +1530,9 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
  *   explicit Jaumann spin sigma + dt (w sigma - sigma w)), then the material's update with d_i
  *   drho_i/dt = -rho_i tr L_i                                   (volume form of 001 Eq 3)
  *   dv_i/dt = sum_j m_j (sigma_i/rho_i^2 + sigma_j/rho_j^2 + f_ij^n (R_i + R_j) - Pi_ij I) G_ij
- *             (001 Eq 1b with the sign erratum of §1.4: -Pi_ij, since sigma is tension-positive)
+ *             (the Libersky-Petschek form; 001 Eq 1b prints (sigma_i + sigma_j)/(rho_i rho_j), equally
+ *             conservative and nearly equal within one material, offered across sets by continuum's
+ *             form: volume; with the sign erratum of 001 §1.4: -Pi_ij, since sigma is tension-positive)
  *   de_i/dt = -sum_j m_j (sigma_i/rho_i^2 + f_ij^n R_i - Pi_ij/2 I) : (v_ij (x) G_ij)
  *             (001 Eq 1c with errata §1.5: AV heating included, deviatoric work sigma:d/rho
  *             without the 1/2; the pairwise split makes m.v.a + m de/dt sum to zero exactly)
@@ -1536,7 +1540,8 @@ static ej_err sph_pair_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
  * Artificial stress (Gray, Monaghan & Swift, CMAME 190 (2001) 6641, Eqs 4.8-4.11, Monaghan,
  * JCP 159 (2000) 290): in the principal frame R'_aa = -eps sigma'_aa / rho^2 where
  * sigma'_aa > 0, else 0, rotated back; f_ij = W(r_ij, hbar) / W(dx, hbar) with dx = hbar / h_factor
- * (the initial spacing). The Monaghan viscosity Pi_ij is the one of the gas path (000 Eq 26). */
+ * (the current local spacing (m/rho)^(1/d) with variable_h, clipped by h_min/h_max; the initial one with
+ * constant h). The Monaghan viscosity Pi_ij is the one of the gas path (000 Eq 26). */
 
 typedef struct sph_solid_args {
   const ej_real *x, *v, *m, *rho, *c, *h, *L, *sr2, *R, *fsw;
@@ -2534,7 +2539,7 @@ static const ej_method_ops sph_ops = {
     .name = "sph",
     .summary = "Standard SPH: gas dynamics (continuity density, Monaghan viscosity) and solids (strength: true)",
     .doc = "Compressible SPH in the standard symmetric form (Fan & Li, digest 000 Eqs 22-28, with the Eq 24 "
-           "sign erratum): density by the continuity equation (by default in the volume form, renormalised "
+           "sign erratum): density by the continuity equation (continuity: auto, renormalised "
            "so that uniform compression is exact), pressure from the material's EOS, Monaghan viscosity, "
            "cubic-spline or Wendland C2 kernel with support 2h, variable h bounded by h_min and h_max, an "
            "optional conservative kernel gradient correction, optional summation density, and the "
