@@ -209,10 +209,11 @@ static ej_err pd_sph_paper_solid(const pd_sph_state *s, const cpl_side *S, const
       const ej_real lx = sqrt(X[0] * X[0] + X[1] * X[1] + X[2] * X[2]);
       if (lx >= delta || lx <= 0) continue;
       const ej_real w = s->cfg.influence == PDSPH_W_CONSTANT ? 1.0 : (1 - lx / delta) * (1 - lx / delta);
-      /* fluid P_J = -p_J J^(2/3) I with J = rho0_J / rho_J (isotropic F_J) */
+      /* fluid P_J = -J p_J F_J^-T = -p_J J^((d-1)/d) I with J = rho0_J / rho_J and the isotropic
+       * F_J = J^(1/d) I of the set's dimension d (J^(2/3) in 3D, J^(1/2) in 2D, 1 in 1D) */
       const ej_real Jg = rho0_g / G->rho[j];
       const ej_real pj = G->p ? G->p[j] : -(G->stress[6 * j] + G->stress[6 * j + 1] + G->stress[6 * j + 2]) / 3;
-      const ej_real Pj = -pj * cbrt(Jg * Jg);
+      const ej_real Pj = -pj * (S->dim == 3 ? cbrt(Jg * Jg) : S->dim == 2 ? sqrt(Jg) : 1.0);
       ej_real KX[3], PKX[3];
       ej_m3_apply(KX, Ki, X);
       ej_m3_apply(PKX, PK + 9 * i, X);
@@ -348,7 +349,11 @@ static ej_err pd_sph_consistent_solid(const pd_sph_state *s, const cpl_side *S, 
 }
 
 /* Fluid side of the paper form: standard SPH sums with the solid particle as a fluid particle of
- * density rho0/J and pressure -tr(sigma)/3 (Eqs 41-42). */
+ * density rho0/J and pressure -tr(sigma)/3 (Eqs 41-42): momentum 000 Eq 23, continuity in 000 Eq 22's
+ * mass form drho_i/dt = sum_j m_j (v_i - v_j).grad_i W, and the pdV work p_i/rho_i^2 of that same sum
+ * (de_i/dt = p_i/rho_i^2 drho_i/dt pair by pair) plus half the viscous term. (Until 2026-12-02 the
+ * continuity was rho_i sum_j (m_j/rho_j) (...), which put a factor rho_j/rho_i between the compression
+ * work and the density change of every gas-soil pair.) */
 static void pd_sph_paper_fluid(const pd_sph_state *s, const cpl_side *G, const cpl_side *S, const ej_nbr *gs,
                                ej_range r)
 {
@@ -380,11 +385,11 @@ static void pd_sph_paper_fluid(const pd_sph_state *s, const cpl_side *G, const c
       const ej_real vg = dv[0] * g[0] + dv[1] * g[1] + dv[2] * g[2]; /* (v_j - v_i) . grad_i W */
       for (int q = 0; q < 3; ++q) acc[q] -= mj * coef * g[q];
       de -= mj * (pr_i + 0.5 * pij) * vg; /* (v_i - v_j) . grad_i W = -vg */
-      drho -= (mj / rho_j) * vg;
+      drho -= mj * vg; /* 000 Eq 22 */
     }
     for (int q = 0; q < 3; ++q) G->a[3 * i + q] += acc[q];
     if (G->e_dot) G->e_dot[i] += de;
-    if (G->rho_dot) G->rho_dot[i] += rho_i * drho;
+    if (G->rho_dot) G->rho_dot[i] += drho;
   }
 }
 
