@@ -114,8 +114,9 @@ static const ej_interaction_ops continuum_ops = {
     .struct_size = sizeof(ej_interaction_ops),
     .name = "continuum",
     .summary = "Generic momentum-conserving coupling of two continuum sets of any methods (SPH stress form)",
-    .doc = "Pairwise SPH stress-form forces between the particles of two sets, dv_i/dt = sum_j m_j (sigma_i/rho_i^2 "
-           "+ sigma_j/rho_j^2 - Pi_ij I) grad_i W, with the matching energy and continuity terms, evaluated from "
+    .doc = "Pairwise SPH stress-form forces between the particles of two sets, dv_i/dt = sum_j m_j S_ij grad_i W with "
+           "S_ij = (sigma_i + sigma_j)/(rho_i rho_j) - Pi_ij I (form: volume, default) or sigma_i/rho_i^2 + "
+           "sigma_j/rho_j^2 - Pi_ij I (form: standard), with the matching energy and continuity terms, evaluated from "
            "each side in gather form so that the pair forces are equal and opposite: momentum and energy are "
            "conserved to round-off. Works for every method that publishes rho and stress or p (sigma = -p I), "
            "optionally c and h. See plugins/interactions/continuum/README.md.",
