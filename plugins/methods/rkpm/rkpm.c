@@ -649,7 +649,16 @@ static inline RK_ALWAYS_INLINE void rk_moment_rows(const int dim, const rk_args 
   const ej_real *restrict X = A->X, *restrict ra = A->ra;
   const int n = dim + 1;
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
-    if (A->lag && A->ready[i]) continue;
+    if (A->lag && A->ready[i]) {
+      /* computed once; the flag (a scratch field, not checkpointed) is read back from the moments,
+       * which are: a node on the constant basis is the only one with m2 = 0 (rk_taylor_guard and the
+       * fallback below zero it; a regular node's m2 is the inverse of a positive definite block), so a
+       * restarted run finds its fallback nodes again (before, they came back to life and a restart
+       * stopped at det F = 0 where the run itself did not) */
+      const ej_real *c2 = A->m2 + 6 * i;
+      A->fb_step[i] = c2[0] == 0.0 && c2[1] == 0.0 && c2[2] == 0.0 ? 1 : 0;
+      continue;
+    }
     const ej_real xi0 = X[3 * i], xi1 = dim > 1 ? X[3 * i + 1] : 0.0, xi2 = dim > 2 ? X[3 * i + 2] : 0.0;
     const ej_real inv_l = 1.0 / ra[i];
     /* Accumulate in the scaled basis H = [1, (x_I - x_J)/a_I]: O(1) entries, so the pivot test
@@ -1300,8 +1309,10 @@ static inline RK_ALWAYS_INLINE void rk_grad_rows(const int dim, const bool lag, 
         if (lag) Fx[9 * i + 3 * c + k] = -inv_l * gf;
       }
     if (lag) {
-      /* Directions outside the dimension do not deform (plane strain, uniaxial strain). */
-      for (int c = dim; c < 3; ++c) Fx[9 * i + 4 * c] = 1.0;
+      /* Directions outside the dimension do not deform (plane strain, uniaxial strain); a node on the
+       * constant basis (fb_step 1: m1 = C = 0, no gradient) does not deform at all, as in the box path
+       * (before, its in-plane F was 0 and the run stopped at det F = 0: a plate one node thick) */
+      for (int c = A->fb_step[i] == 1 ? 0 : dim; c < 3; ++c) Fx[9 * i + 4 * c] = 1.0;
     }
   }
 }
@@ -1752,7 +1763,7 @@ RK_SCATTER_DIM(3)
 #define RK_SB_NODES 8 /* nodes per sub-box material batch (stack scratch) */
 static ej_err rk_subbox_material(const rk_state *s, ej_range rb, const ej_real *sgn, const ej_real *sg,
                                  const ej_real *Gm, const ej_real *dGm, const ej_real *Qs, ej_real *const *ssf,
-                                 const ej_real *rho, const ej_real *e, const ej_real *p,
+                                 const ej_real *rho, const ej_real *e, const ej_real *peos,
                                  const ej_real hsn[RK_MAX_HIST][RK_BLOCK], int nh,
                                  const int32_t *failed, const int32_t *fbs, ej_real dt)
 {
@@ -1785,7 +1796,7 @@ static ej_err rk_subbox_material(const rk_state *s, ej_range rb, const ej_real *
           for (int q = 0; q < 9; ++q) g[q] = Gm[9 * kb + q] + dg[q];
           ej_m3_sym(dx + 6 * j, g);
         }
-        rh[j] = rho[i], ee[j] = e[i], pp[j] = p[i], fl[j] = failed[i];
+        rh[j] = rho[i], ee[j] = e[i], pp[j] = peos[kb], fl[j] = failed[i]; /* the node's EOS pressure */
         for (int k = 0; k < nh; ++k) hv[k][j] = hsn[k][kb]; /* node history at t_n */
       }
     }
@@ -1940,6 +1951,10 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
       ej_m3_sym(dd + 6 * i, lm);
     }
     if (s->eos) EJ_TRY(ej_eos_evaluate_set(s->eos, set, rb, rho + rb.begin, e + rb.begin, p + rb.begin, c + rb.begin));
+    /* the EOS pressure, for the sub-box updates (p is the node's -tr(sigma)/3 once the material has run:
+     * a strength model that adds to it, jh2's bulking, would otherwise count twice there) */
+    ej_real peos[RK_BLOCK];
+    for (ej_idx i = rb.begin; i < rb.end; ++i) peos[i - rb.begin] = s->eos ? p[i] : 0.0;
     if (s->mat) {
       ej_real *hb[RK_MAX_HIST];
       for (int k = 0; k < nh; ++k) hb[k] = hist[k] + rb.begin;
@@ -1988,7 +2003,7 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
       rho_dot[i] += -rho[i] * ej_s6_trace(d6);
       if (!s->box) e_dot[i] += ej_s6_ddot(t, d6) / rho[i];
       if (s->lagrangian) {
-        /* P = J sigma F^-T, with J = rho0/rho consistent with the nodal volume V0 J. */
+        /* P = J sigma F^-T, J = det F (the nodal volume V0 J). */
         ej_real Fi[9], S[9];
         ej_m3_identity(Fi);
         ej_m3_inverse(Fi, F + 9 * i); /* regular: checked above */
@@ -2000,7 +2015,7 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
       if (!isfinite(c[i])) return rk_bad(s, set, i, "sound speed c", c[i]);
     }
     if (s->smat)
-      EJ_TRY(rk_subbox_material(s, rb, sgn, sg, Gm, dGm, Qs, ssf, rho, e, p, hsn, nh, failed, fbs, dt));
+      EJ_TRY(rk_subbox_material(s, rb, sgn, sg, Gm, dGm, Qs, ssf, rho, e, peos, hsn, nh, failed, fbs, dt));
     for (ej_idx i = rb.begin; i < rb.end && s->box; ++i) {
       rk_box_close(s, i, i - rb.begin, sg + 6 * i, s->lagrangian ? P + 9 * i : NULL, A.gv + 9 * i, dGp, dGm,
                    Qs + 9 * (i - rb.begin), ssf, m[i], rho[i], vol0[i], c[i], id[i], fbs[i] || failed[i], dt, wst,
