@@ -297,8 +297,16 @@ static int cmd_run(int argc, char **argv, bool check_only)
       if (s->mops->counters && s->mops->counters(s->mstate, cnt, 16, &nc) == EJ_OK)
         for (int k = 0; k < nc; ++k) printf("ejecta: set '%s': %s: %lld\n", s->name, cnt[k].name, (long long)cnt[k].value);
     }
-    printf("ejecta: energy balance error %.3e J (%.3e of the initial total)\n", sim->energy.balance,
-           sim->energy.total0 != 0 ? sim->energy.balance / sim->energy.total0 : 0.0);
+    /* relative to the initial total; a run that starts with none (a body at rest loaded by gravity or
+     * a pressure) is measured against the external work instead, never printed as 0 of nothing */
+    const ej_energy *en = &sim->energy;
+    if (en->total0 != 0)
+      printf("ejecta: energy balance error %.3e J (%.3e of the initial total)\n", en->balance, en->balance / en->total0);
+    else if (en->external != 0)
+      printf("ejecta: energy balance error %.3e J (%.3e of the external work; the initial total is 0)\n", en->balance,
+             en->balance / fabs(en->external));
+    else
+      printf("ejecta: energy balance error %.3e J (the initial total and the external work are 0)\n", en->balance);
   }
 out:
   if (rc != EJ_OK) {

@@ -572,7 +572,8 @@ void ej_comm_sum(ej_real *v, int n);
 typedef struct ej_energy {
   ej_real kinetic, internal, viscous, plastic, hourglass;
   ej_real external; /* accumulated external work: gravity + plugins' WORK - DISSIPATED series */
-  ej_real work_gravity; /* accumulated work of gravity */
+  ej_real work_gravity; /* accumulated work of gravity, prescribed velocities, dashpots and pressure loads
+                         * (the core's own external work; checkpointed as energy_work_gravity) */
   ej_real total0;   /* kinetic + internal at t = 0 */
   ej_real balance;  /* kinetic + internal - total0 - external */
   ej_real momentum[3];
