@@ -417,6 +417,16 @@ ej_err ej_output_open(ej_output **outp, const ej_sim *sim, const char *path)
                         strerror(err));
     goto free_out;
   }
+  /* The final name is taken by a rename at the end: a directory there (or at the sidecar's name)
+   * would fail only then, after the whole run. */
+  struct stat st;
+  const char *names[2] = {path, out->xdmf};
+  for (int k = 0; k < 2; ++k)
+    if (stat(names[k], &st) == 0 && S_ISDIR(st.st_mode)) {
+      rc = ej_error_input(where, "cannot write output file '%s': '%s' is a directory (expected a file name)", path,
+                          names[k]);
+      goto free_out;
+    }
   /* Strong close: H5Fclose really closes even if an object id leaked, so the rename that
    * follows never races an open handle. */
   hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);

@@ -295,7 +295,10 @@ static ej_err ej_sim_scratch(ej_sim *sim, const ej_set *s)
  * scene node that configured it, so the user sees FILE:LINE:COL like every other input error. */
 static ej_err ej_located(ej_err rc, const ej_loc *loc)
 {
-  if (rc != EJ_ERR_INPUT) return rc;
+  /* a plugin's create refusing a combination the scene asked for (EJ_ERR_UNSUPPORTED: strength
+   * without a strength model, a 3D-only model in 2D, an interaction given one set) is bad input
+   * too: one located message and exit 2, not an internal error with code frames */
+  if (rc != EJ_ERR_INPUT && rc != EJ_ERR_UNSUPPORTED) return rc;
   const ej_error_frame *cause = ej_error_cause();
   if (!cause || cause->where.file) return rc;
   char msg[EJ_ERROR_MSG_LEN];

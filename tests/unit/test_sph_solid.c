@@ -411,6 +411,24 @@ START_TEST(test_config)
 }
 END_TEST
 
+/* A plugin's create that refuses the scene's combination (here sph strength: true on a gas) is bad
+ * input: one message at the set's line:col and exit 2 (EJ_ERR_INPUT), not an internal error
+ * (EJ_ERR_UNSUPPORTED with code frames and exit 1, before 2026-12-02). */
+START_TEST(test_refusal_is_located)
+{
+  char dir[64], scene[128];
+  vrun_dir(dir, sizeof dir, "sph_refuse");
+  snprintf(scene, sizeof scene, "%s/s.yaml", dir);
+  vrun_write(scene, "ejecta: 1\ndimension: 1\ntime: {end: 1e-3}\n"
+                    "materials:\n  gas: {rho0: 1, eos: {model: ideal_gas, gamma: 1.4}}\n"
+                    "sets:\n  tube: {method: sph, material: gas, strength: true,\n"
+                    "         shape: {box: {min: [0], max: [1]}}, spacing: 0.1}\n");
+  vrun_check_refuses(scene, "sph has strength: true, but material 'gas' has no strength model", 7, 3);
+  const char *names[] = {"s.yaml"};
+  vrun_cleanup(dir, names, 1);
+}
+END_TEST
+
 int main(void)
 {
   Suite *s = suite_create("sph_solid");
@@ -423,6 +441,7 @@ int main(void)
   tcase_add_test(tm, test_config);
   tcase_add_test(tm, test_balsara_switch);
   tcase_add_test(tm, test_visc_shear_traction);
+  tcase_add_test(tm, test_refusal_is_located);
   suite_add_tcase(s, tm);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
