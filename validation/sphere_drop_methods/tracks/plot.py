@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Depth tracks in Seguin's container with the Mohr-Coulomb bed (README, "Seguin's container and the
-Mohr-Coulomb bed, SPH against RKPM"): the SPH bed at 6 and 4 mm (three heights each), the RKPM bed at 5 mm (msnni_w 0.5) and
+Mohr-Coulomb bed, SPH against RKPM"): the SPH bed at 6 and 4 mm (three heights each) and 3.5 mm (h 500 mm), the RKPM bed at 5 mm (msnni_w 0.5) and
 6 mm (msnni_w 0.25), from the CSV tracks kept here and in validation/sphere_drop/tracks. Writes
 ../sphere_drop_methods_seguin_tracks.png."""
 import csv
@@ -24,6 +24,7 @@ RUNS = [
     (os.path.join(HERE, "sph_h100_s4mm_seguin_cap3_mc.csv"), "SPH 4 mm, h 100 mm", "C3", ":"),
     (os.path.join(HERE, "sph_h300_s4mm_seguin_cap3_mc.csv"), "SPH 4 mm, h 300 mm (from 23.4 ms)", "C3", "-"),
     (os.path.join(HERE, "sph_h500_s4mm_seguin_cap3_mc.csv"), "SPH 4 mm, h 500 mm", "C3", "--"),
+    (os.path.join(HERE, "sph_h500_s3.5mm_seguin_cap3_mc.csv"), "SPH 3.5 mm, h 500 mm", "C2", "--"),
     (os.path.join(RK, "h300_s5mm_cap3_mc_nbody_seguin.csv"), "RKPM 5 mm, w 0.5, h 300 mm", "k", "-"),
     (os.path.join(RK, "h300_s6mm_cap3_mc_nbody_seguin_w0.25.csv"), "RKPM 6 mm, w 0.25, h 300 mm", "0.5", "-"),
 ]
