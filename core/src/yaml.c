@@ -45,10 +45,18 @@ static ej_err ej_yaml_next(ej_yreader *r, yaml_event_t *ev)
   if (p->error == YAML_MEMORY_ERROR) EJ_FAIL(EJ_ERR_MEM, "out of memory parsing YAML");
   ej_loc loc = ej_yaml_loc(r, p->problem_mark);
   if (p->error == YAML_READER_ERROR) {
-    /* Reader errors (bad encoding) report a byte offset, not a line. */
-    loc.line = loc.col = 0;
-    return ej_error_input(&loc, "malformed YAML: %s at byte %zu", p->problem ? p->problem : "unreadable input",
-                          p->problem_offset);
+    /* Reader errors (bad encoding, a control character) report a byte offset, not a line: the
+     * line and column (counted in characters, a UTF-8 sequence being one) come from the text. */
+    const char *t = r->doc->text;
+    const size_t off = p->problem_offset < r->doc->text_len ? p->problem_offset : r->doc->text_len;
+    int line = 1, col = 1;
+    for (size_t k = 0; k < off; ++k) {
+      if (t[k] == '\n') ++line, col = 1;
+      else if (((unsigned char)t[k] & 0xC0u) != 0x80u) ++col; /* not a continuation byte */
+    }
+    loc.line = line, loc.col = col;
+    return ej_error_input(&loc, "malformed YAML: %s (byte %zu; the scene must be UTF-8 text)",
+                          p->problem ? p->problem : "unreadable input", p->problem_offset);
   }
   if (p->context)
     return ej_error_input(&loc, "malformed YAML: %s (%s at line %d)", p->problem ? p->problem : "syntax error",

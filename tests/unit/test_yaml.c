@@ -101,6 +101,10 @@ START_TEST(test_malformed)
   expect_parse_error("a: 1\nb: [1, 2\nc: 3\n", 3, 2, "malformed YAML");
   expect_parse_error("a:\n  b: 1\n c: 2\n", 3, 2, "malformed YAML: did not find expected key");
   expect_parse_error("a: 'unterminated\n", 2, 1, "malformed YAML: found unexpected end of stream");
+  /* reader errors come with a byte offset only: located from the text (before: line 0, "at byte") */
+  expect_parse_error("a: 1\nb: x\x01\n", 2, 5, "control characters are not allowed");
+  expect_parse_error("a: 1\n# caf\xe9 z\n", 2, 7, "invalid trailing UTF-8 octet");
+  expect_parse_error("a: 1\n# \xc3\xa9\xff\n", 2, 4, "invalid leading UTF-8 octet");
 }
 END_TEST
 
