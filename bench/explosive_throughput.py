@@ -2,7 +2,7 @@
 """Explosive throughput (issue 3): particle-steps per second per core of sph (kernel gradient),
 sph (gradient: shape_tensor) and ulpd on one 3D C4 charge with a programmed burn.
 
-    /usr/bin/python3 bench/explosive_throughput.py --build build [--n-side 46] [--steps 13]
+    /usr/bin/python3 bench/explosive_throughput.py --build build [--n-side 46] [--steps 150]
                                                   [--repeats 2] [--threads auto|1 2] [--keep DIR]
 
 Problem (the three runs differ only in the method lines): a cube of C4, n_side^3 particles on a
@@ -24,10 +24,18 @@ each method's runs alternated (1 thread; a multi-thread count runs once). The ra
 issue's number (target <= 1.5). Multi-thread rates are only meaningful on an idle machine: the
 1-minute load average is printed before the runs. Scenes are written into a temporary folder
 (removed afterwards unless --keep). A report, not a test: the exit status is 0 whatever the
-numbers are. About 28 s of CPU per repeat at the defaults (1 thread: 2 repeats, 2 threads: 1), so
-about 55 s on a loaded machine and 85 s on an idle one (2 threads added). In 12 steps (dt ~ 75 ns)
-the front runs ~7 mm (3.5 spacings); with the burn ramp and the volume-burn lead, 22 % of the
-charge has burn > 0 after 13 steps (measured, n_side 46).
+numbers are. About 105 s of CPU per repeat at the defaults (1 thread: 2 repeats, 2 threads: 1), so
+about 5-6 minutes in all.
+
+Window: the default is 150 steps (since 2026-12-02; 13 before), about the whole burn: the front
+(8.19 km/s, dt ~ 58-75 ns) crosses the 92 mm cube in about 11 us, and the runs reach 8.3-8.6 us in 150
+steps. The ratio depends on the window, because the two runs rebuild their lists at different times
+(the consistent gradient drives the free surface faster, so the shape run rebuilds more often, and both
+rebuild more often as the products accelerate; a rebuild costs about one kernel step). Measured on an
+idle machine, 1 thread, best of 3-5 (plugins/methods/sph/README.md "Performance"): 12-step window 1.71
+to 2.16 (1 rebuild against 2: quantised), 39 steps 1.656 (10 rebuilds against 12), 99 steps 1.535,
+149 steps 1.508 (47 against 64). In 12 steps (dt ~ 75 ns) the front runs ~7 mm (3.5 spacings) and 22 %
+of the charge has burn > 0; after 100 steps 67 %.
 """
 import argparse
 import os
@@ -101,7 +109,7 @@ def loadavg():
         return "?"
 
 
-def measure(build, n_side=46, steps=13, repeats=2, threads=(1,), keep=None, log=print):
+def measure(build, n_side=46, steps=150, repeats=2, threads=(1,), keep=None, log=print):
     """Returns {"n", "steps", "load_before", "load_after", "t1", "tN", "rate" {(key, th): rate per core},
     "ratio" {th: shape/kernel}, "burnt" (fraction of the charge with burn > 0 after N steps)}."""
     exe = common.ejecta_binary(build)
@@ -152,7 +160,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default="build")
     ap.add_argument("--n-side", type=int, default=46)
-    ap.add_argument("--steps", type=int, default=13)
+    ap.add_argument("--steps", type=int, default=150)
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--threads", nargs="+", default=["auto"],
                     help="thread counts; auto (default): 1, and 2 as well when the 1-minute load average is "
