@@ -433,6 +433,22 @@ static ej_err ej_parse_material(ej_loader *L, int i, const ej_node *mats)
 
 /* ------------------------------------------------------------------ sets */
 
+
+/* A physical vector (a velocity, gravity, a face normal): a 1D or 2D scene may write 3 numbers, but the
+ * axes it does not have must be 0 (before 2026-12-02 such components were applied silently: particles
+ * left the line or plane). Points and shapes keep their third component (a 2D cylinder along z is a disk). */
+static ej_err ej_node_vector_plane(const ej_node *n, int dim, const char *unit, ej_real v[3])
+{
+  EJ_TRY(ej_node_vector(n, dim, unit, v));
+  for (int k = dim; k < 3 && n->type == EJ_NODE_SEQ && k < n->n; ++k)
+    if (v[k] != 0)
+      return ej_error_input(&n->items[k]->loc,
+                            "component %d is %g, but the scene has dimension %d: a velocity, gravity or normal "
+                            "must have 0 beyond its first %d components (or give %d numbers)",
+                            k + 1, v[k], dim, dim, dim);
+  return EJ_OK;
+}
+
 static ej_err ej_parse_init(ej_loader *L, const char *set, ej_scene_init *in, const ej_node *n, bool whole_set)
 {
   char what[EJ_WHAT_MAX];
@@ -454,7 +470,7 @@ static ej_err ej_parse_init(ej_loader *L, const char *set, ej_scene_init *in, co
   in->has_p = ej_node_get(n, "p") != NULL;
   const ej_node *v = ej_node_get(n, "velocity");
   if (v) {
-    EJ_TRY(ej_node_vector(v, L->sc->dimension, "m/s", in->v));
+    EJ_TRY(ej_node_vector_plane(v, L->sc->dimension, "m/s", in->v));
     in->has_v = true;
   }
   if (in->has_e && in->has_p)
@@ -680,7 +696,7 @@ static ej_err ej_face_normal(ej_loader *L, const ej_node *v, const char *what, e
                           "%s needs one of 'normal' (a plane face, outward) and 'center' (a spherical one)%s", what,
                           nn ? ", not both" : "");
   if (nn) {
-    EJ_TRY(ej_node_vector(nn, dim, "1", bc->normal));
+    EJ_TRY(ej_node_vector_plane(nn, dim, "1", bc->normal));
     ej_real len = 0;
     for (int k = 0; k < 3; ++k) len += bc->normal[k] * bc->normal[k];
     len = sqrt(len);
@@ -804,7 +820,7 @@ static ej_err ej_parse_bc(ej_loader *L, int index, ej_scene_bc *bc, const ej_nod
     break;
   case 1: {
     bc->kind = EJ_BC_VELOCITY;
-    EJ_TRY(ej_node_vector(v, dim, "m/s", bc->velocity));
+    EJ_TRY(ej_node_vector_plane(v, dim, "m/s", bc->velocity));
     /* until: the velocity is prescribed while t <= until, then the particles are free (an
      * impactor that separates); by default for the whole run */
     bc->until = INFINITY;
@@ -1031,7 +1047,7 @@ static ej_err ej_scene_parse(ej_loader *L)
 
   EJ_TRY(ej_parse_output(L, ej_node_get(root, "output")));
   const ej_node *g = ej_node_get(root, "gravity");
-  if (g) EJ_TRY(ej_node_vector(g, sc->dimension, "m/s^2", sc->gravity));
+  if (g) EJ_TRY(ej_node_vector_plane(g, sc->dimension, "m/s^2", sc->gravity));
 
   const ej_node *mats = ej_node_get(root, "materials");
   if (mats) {

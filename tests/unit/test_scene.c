@@ -360,6 +360,16 @@ START_TEST(test_bad_misc)
            "takes either 'shape' or 'file'", 6, 97);
   load_bad(HEAD "sets: {}\n", "'sets' is empty", 5, 7);
   load_bad(HEAD "gravity: [0, -9.81]\n" SET_OK, "expected a list of 3 numbers", 5, 10);
+  /* a 2D scene may write 3 numbers, but a velocity, gravity or normal out of its plane is refused */
+  load_bad("ejecta: 1\ndimension: 2\ntime: {end: 1 ms}\ngravity: [0, 0, -9.81]\nmaterials:\n"
+           "  air: {rho0: 1.2, eos: {model: ideal_gas, gamma: 1.4}}\n"
+           "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0], max: [1, 1]}}, spacing: 0.1}\n",
+           "component 3 is -9.81, but the scene has dimension 2", 4, 17);
+  load_bad("ejecta: 1\ndimension: 2\ntime: {end: 1 ms}\nmaterials:\n"
+           "  air: {rho0: 1.2, eos: {model: ideal_gas, gamma: 1.4}}\n"
+           "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0], max: [1, 1]}}, spacing: 0.1,\n"
+           "        velocity: [1, 0, 5]}\n",
+           "component 3 is 5, but the scene has dimension 2", 8, 26);
   write_file("particles.csv", "x,y,z\n0,0,0\n0.1,0,0\n");
   load_bad(HEAD "sets:\n  gas: {method: sph, material: air, file: particles.csv, spacing: 0.1,"
                 " lattice_origin: [0, 0, 0]}\n",
