@@ -2263,6 +2263,25 @@ static ej_err ej_maybe_output(ej_sim *sim, bool last)
 
 /* ------------------------------------------------------------------ public API */
 
+/* `domain` must hold every initial particle: one outside it is bad input (a domain drawn too small or
+ * a set placed outside it), found by `ejecta check` too, not a run that stops at step 0 with exit 1. */
+static ej_err ej_domain_holds_start(const ej_sim *sim)
+{
+  const ej_shape *dom = sim->scene->domain;
+  for (int i = 0; i < sim->n_sets; ++i) {
+    const ej_set *s = sim->sets[i];
+    const ej_real *x = s->fields[s->f_x].data;
+    const int32_t *id = s->fields[s->f_id].data;
+    for (ej_idx p = 0; p < s->n; ++p)
+      if (!ej_shape_contains(dom, x + 3 * (size_t)p))
+        return ej_error_input(&sim->scene->domain_loc,
+                              "set '%s' starts with particle id %d at (%g, %g, %g) outside the domain (expected a "
+                              "domain that holds every initial particle)",
+                              s->name, (int)id[p], x[3 * p], x[3 * p + 1], x[3 * p + 2]);
+  }
+  return EJ_OK;
+}
+
 ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts, ej_sim **out)
 {
   ej_sim *sim = ej_calloc(1, sizeof *sim);
@@ -2301,6 +2320,7 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
   if (opts && opts->t_end > 0) scene->t_end = opts->t_end;
   EJ_TRY_GOTO(rc, ej_models_create(sim), out_destroy);
   EJ_TRY_GOTO(rc, ej_sets_create(sim), out_destroy);
+  if (scene->domain && !(opts && opts->restart)) EJ_TRY_GOTO(rc, ej_domain_holds_start(sim), out_destroy);
   EJ_TRY_GOTO(rc, ej_check_output_fields(sim), out_destroy);
   sim->inter = ej_calloc((size_t)scene->n_interactions + 1, sizeof *sim->inter);
   EJ_ENSURE(sim->inter, EJ_ERR_MEM, "out of memory");

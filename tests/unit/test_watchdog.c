@@ -254,6 +254,14 @@ START_TEST(test_bad_settings)
                         "sets:\n  tube: {method: sph, material: gas, shape: {box: {min: [0], max: [1]}}, spacing: 0.1}\n");
   ck_assert_int_eq(run("b.yaml", err, sizeof err), 2);
   ck_assert_msg(strstr(err, "b.yaml:4:"), "%s", err);
+  /* a domain that does not hold the initial particles is bad input (exit 2 at the domain, nothing
+   * written), not a watchdog stop at step 0 (exit 1, a .partial) as before 2026-12-02 */
+  write_scene("c.yaml", "ejecta: 1\ndimension: 1\ntime: {end: 1}\noutput: {file: c.h5}\n"
+                        "domain: {box: {min: [0.5], max: [3]}}\n" GAS
+                        "sets:\n  tube: {method: sph, material: gas, shape: {box: {min: [0], max: [1]}}, spacing: 0.1}\n");
+  ck_assert_int_eq(run("c.yaml", err, sizeof err), 2);
+  ck_assert_msg(strstr(err, "c.yaml:5:9: error:") && strstr(err, "outside the domain"), "%s", err);
+  ck_assert(!exists("c.h5") && !exists("c.h5.partial"));
   cleanup();
 }
 END_TEST
