@@ -439,8 +439,8 @@ static ej_err ej_parse_material(ej_loader *L, int i, const ej_node *mats)
  * left the line or plane). Points and shapes keep their third component (a 2D cylinder along z is a disk). */
 static ej_err ej_node_vector_plane(const ej_node *n, int dim, const char *unit, ej_real v[3])
 {
-  EJ_TRY(ej_node_vector(n, dim, unit, v));
-  for (int k = dim; k < 3 && n->type == EJ_NODE_SEQ && k < n->n; ++k)
+  EJ_TRY(ej_node_vector(n, dim, unit, v)); /* a list of dim or 3 numbers */
+  for (int k = dim; k < n->n; ++k)
     if (v[k] != 0)
       return ej_error_input(&n->items[k]->loc,
                             "component %d is %g, but the scene has dimension %d: a velocity, gravity or normal "

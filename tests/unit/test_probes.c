@@ -289,13 +289,10 @@ END_TEST
  * `ejecta check` reports it too). */
 START_TEST(test_unknown_field)
 {
-  char dir[64], scene[128];
-  vrun_dir(dir, sizeof dir, "probes_bad");
-  snprintf(scene, sizeof scene, "%s/s.yaml", dir);
   char text[sizeof probe_scene + 64];
   snprintf(text, sizeof text, "%s  - {set: gas, point: [0, 0, 0], fields: [rho, pres]}\n", probe_scene);
-  vrun_write(scene, text);
-  vrun_check_refuses(scene, "probe 'probe4': set 'gas' has no field 'pres' ('ejecta describe sph' lists", 22, 48);
+  vrun_refuses_text("probes_bad", text, "probe 'probe4': set 'gas' has no field 'pres' ('ejecta describe sph' lists",
+                    22, 48);
 }
 END_TEST
 

@@ -416,16 +416,12 @@ END_TEST
  * (EJ_ERR_UNSUPPORTED with code frames and exit 1, before 2026-12-02). */
 START_TEST(test_refusal_is_located)
 {
-  char dir[64], scene[128];
-  vrun_dir(dir, sizeof dir, "sph_refuse");
-  snprintf(scene, sizeof scene, "%s/s.yaml", dir);
-  vrun_write(scene, "ejecta: 1\ndimension: 1\ntime: {end: 1e-3}\n"
+  vrun_refuses_text("sph_refuse",
+                    "ejecta: 1\ndimension: 1\ntime: {end: 1e-3}\n"
                     "materials:\n  gas: {rho0: 1, eos: {model: ideal_gas, gamma: 1.4}}\n"
                     "sets:\n  tube: {method: sph, material: gas, strength: true,\n"
-                    "         shape: {box: {min: [0], max: [1]}}, spacing: 0.1}\n");
-  vrun_check_refuses(scene, "sph has strength: true, but material 'gas' has no strength model", 7, 3);
-  const char *names[] = {"s.yaml"};
-  vrun_cleanup(dir, names, 1);
+                    "         shape: {box: {min: [0], max: [1]}}, spacing: 0.1}\n",
+                    "sph has strength: true, but material 'gas' has no strength model", 7, 3);
 }
 END_TEST
 

@@ -112,6 +112,18 @@ static inline void vrun_check_refuses(const char *path, const char *msg, int lin
   ej_registry_destroy(reg);
 }
 
+/* vrun_check_refuses on a scene given as text, written into a fresh temporary folder named after tag
+ * (removed afterwards). */
+static inline void vrun_refuses_text(const char *tag, const char *text, const char *msg, int line, int col)
+{
+  char dir[64], scene[128];
+  vrun_dir(dir, sizeof dir, tag);
+  snprintf(scene, sizeof scene, "%s/s.yaml", dir);
+  vrun_write(scene, text);
+  vrun_check_refuses(scene, msg, line, col);
+  ej_test_rmtree(dir);
+}
+
 /* Two runs of one scene ended in the same state, bitwise: the named fields of set 0 (every
  * component) and the external work of the budget; what names the comparison in the messages. */
 static inline void vrun_same_state(const ej_sim *a, const ej_sim *b, const char *const *fields, int n,

@@ -1796,7 +1796,7 @@ static ej_err rk_subbox_material(const rk_state *s, ej_range rb, const ej_real *
           for (int q = 0; q < 9; ++q) g[q] = Gm[9 * kb + q] + dg[q];
           ej_m3_sym(dx + 6 * j, g);
         }
-        rh[j] = rho[i], ee[j] = e[i], pp[j] = peos[kb], fl[j] = failed[i]; /* the node's EOS pressure */
+        rh[j] = rho[i], ee[j] = e[i], pp[j] = s->eos ? peos[kb] : 0.0, fl[j] = failed[i]; /* the node's EOS pressure */
         for (int k = 0; k < nh; ++k) hv[k][j] = hsn[k][kb]; /* node history at t_n */
       }
     }
@@ -1954,7 +1954,8 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
     /* the EOS pressure, for the sub-box updates (p is the node's -tr(sigma)/3 once the material has run:
      * a strength model that adds to it, jh2's bulking, would otherwise count twice there) */
     ej_real peos[RK_BLOCK];
-    for (ej_idx i = rb.begin; i < rb.end; ++i) peos[i - rb.begin] = s->eos ? p[i] : 0.0;
+    if (s->smat && s->eos) /* read only there: with an EOS (the sub-boxes pass .p = NULL without one) */
+      for (ej_idx i = rb.begin; i < rb.end; ++i) peos[i - rb.begin] = p[i];
     if (s->mat) {
       ej_real *hb[RK_MAX_HIST];
       for (int k = 0; k < nh; ++k) hb[k] = hist[k] + rb.begin;
