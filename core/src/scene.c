@@ -428,6 +428,18 @@ static ej_err ej_parse_material(ej_loader *L, int i, const ej_node *mats)
   if (m->mat_ops && m->mat_ops->needs_eos && !m->eos_ops)
     return ej_error_input(&m->loc, "material '%s': strength model '%s' needs an equation of state (eos: {model: ...})",
                           m->name, m->mat_ops->name);
+  const ej_material_ops *mo = m->mat_ops;
+  if (mo && !m->eos_ops &&
+      mo->struct_size >= offsetof(ej_material_ops, eos_required_by) + sizeof mo->eos_required_by &&
+      mo->eos_required_by) {
+    const char *key = mo->eos_required_by(m->mat_config);
+    const ej_node *kn = key ? ej_node_get(node, key) : NULL;
+    if (key)
+      return ej_error_input(kn ? &kn->loc : &m->loc,
+                            "material '%s': %s with %s: %s needs an equation of state; expected 'eos: {model: ...}' "
+                            "on the material or another value of '%s'",
+                            m->name, mo->name, key, kn && kn->type == EJ_NODE_SCALAR ? kn->text : "(default)", key);
+  }
   return EJ_OK;
 }
 

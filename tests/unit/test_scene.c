@@ -355,6 +355,21 @@ START_TEST(test_bad_misc)
            "'minus' names undefined set 'charge'", 6, 90);
   load_bad("ejecta: 1\ntime: {end: 1}\nmaterials:\n  air: {rho0: 1}\n" SET_OK,
            "material 'air' needs an equation of state", 4, 3);
+  /* a configuration that asks for the EOS (ABI 1.9 eos_required_by): located at that parameter */
+  load_bad("ejecta: 1\ntime: {end: 1}\nmaterials:\n  air: {rho0: 1, eos: {model: ideal_gas, gamma: 1.4}}\n"
+           "  steel: {rho0: 7850, model: von_mises, E: 200 GPa, nu: 0.3, yield_stress: 250 MPa,\n"
+           "          volumetric: eos}\n" SET_OK,
+           "material 'steel': von_mises with volumetric: eos needs an equation of state; expected 'eos: {model: ...}'", 6, 23);
+  load_bad("ejecta: 1\ntime: {end: 1}\nmaterials:\n  air: {rho0: 1, eos: {model: ideal_gas, gamma: 1.4}}\n"
+           "  iron: {rho0: 7890, model: johnson_cook, E: 200 GPa, nu: 0.29, A: 175 MPa, B: 380 MPa, n: 0.32, T_melt: 1811,\n"
+           "         volumetric: eos}\n" SET_OK,
+           "material 'iron': johnson_cook with volumetric: eos needs an equation of state; expected 'eos: {model: ...}'", 6, 22);
+  /* auto and elastic take no EOS; eos with one attached loads */
+  ej_scene_destroy(load_ok("ejecta: 1\ntime: {end: 1}\nmaterials:\n  air: {rho0: 1, eos: {model: ideal_gas, gamma: 1.4}}\n"
+                           "  steel: {rho0: 7850, model: von_mises, E: 200 GPa, nu: 0.3, yield_stress: 250 MPa}\n"
+                           "  iron: {rho0: 7890, model: johnson_cook, E: 200 GPa, nu: 0.29, A: 175 MPa, B: 380 MPa,"
+                           " n: 0.32, T_melt: 1811, volumetric: eos,\n"
+                           "         eos: {model: mie_gruneisen, rho0: 7890, C0: 3630, S1: 1.8, gamma0: 1.81}}\n" SET_OK));
   load_bad(HEAD "sets:\n  gas: {method: sph, material: air, shape: {box: {min: [0, 0, 0], max: [1, 1, 1]}}, spacing: 1,"
                 " file: p.csv}\n",
            "takes either 'shape' or 'file'", 6, 97);

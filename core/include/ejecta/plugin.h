@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 8 /* members appended to an info or ops struct        */
+#define EJ_ABI_MINOR 9 /* members appended to an info or ops struct        */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -334,6 +334,12 @@ typedef struct ej_material_ops {
   /* Initial (elastic) bulk and shear moduli at the reference density: stable steps, hourglass
    * and bond constants. Required. */
   ej_err (*moduli)(const void *state, ej_real *K, ej_real *G);
+  /* --- ABI 1.9. For a model whose need of an EOS depends on its configuration (needs_eos false;
+   * von_mises and johnson_cook `volumetric: eos`): the name of the parameter whose value asks for
+   * the EOS, or NULL when this configuration does not. The core refuses such a material without an
+   * eos at that parameter's line:col (ejecta check, exit 2) instead of failing at the first update.
+   * May be NULL (or absent in an older table): needs_eos alone decides. */
+  const char *(*eos_required_by)(const void *config);
 } ej_material_ops;
 
 ej_err ej_material_update(const ej_material *mat, ej_mat_batch *b);

@@ -230,6 +230,12 @@ static ej_err jc_moduli(const void *state, ej_real *K, ej_real *G)
 
 static void jc_destroy(void *state) { ej_free(state); }
 
+/* ABI 1.9: `volumetric: eos` needs the material's EOS (auto takes it when there is one) */
+static const char *jc_eos_required_by(const void *config)
+{
+  return ((const jc_config *)config)->volumetric == JC_VOL_EOS ? "volumetric" : NULL;
+}
+
 static const ej_material_ops jc_ops = {
     .struct_size = sizeof(ej_material_ops),
     .name = "johnson_cook",
@@ -248,6 +254,7 @@ static const ej_material_ops jc_ops = {
     .update = jc_update,
     .destroy = jc_destroy,
     .moduli = jc_moduli,
+    .eos_required_by = jc_eos_required_by,
 };
 
 static ej_err jc_register(ej_registry *reg)

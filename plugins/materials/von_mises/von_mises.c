@@ -100,6 +100,12 @@ static ej_err vm_moduli(const void *state, ej_real *K, ej_real *G)
 
 static void vm_destroy(void *state) { ej_free(state); }
 
+/* ABI 1.9: `volumetric: eos` needs the material's EOS (auto takes it when there is one) */
+static const char *vm_eos_required_by(const void *config)
+{
+  return ((const vm_config *)config)->volumetric == VM_VOL_EOS ? "volumetric" : NULL;
+}
+
 static const ej_material_ops vm_ops = {
     .struct_size = sizeof(ej_material_ops),
     .name = "von_mises",
@@ -117,6 +123,7 @@ static const ej_material_ops vm_ops = {
     .update = vm_update,
     .destroy = vm_destroy,
     .moduli = vm_moduli,
+    .eos_required_by = vm_eos_required_by,
 };
 
 static ej_err vm_register(ej_registry *reg)
