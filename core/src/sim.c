@@ -975,6 +975,13 @@ static ej_err ej_lists_from_build(ej_sim *sim)
       EJ_TRY(ej_for_chunks(sim, s, ej_support_chunk, NULL));
       continue;
     }
+    if (s->nbr_config == EJ_NBR_NONE && s->wants_images && s->n > 0) {
+      /* no list of its own, but an interaction that needs its images (ABI 1.9 needs_images: kernel_contact
+       * with a rigid_body without normals), as far as the partners' rows reach */
+      const ej_real rmax = ej_set_rmax(s, s->fields[s->f_rb].data), reach = ej_partner_rmax(sim, s);
+      EJ_TRY(ej_ghosts_build(sim, s, s->f_xb, (rmax > reach ? rmax : reach) * (1 + skin)));
+      continue;
+    }
     if (s->nbr_config != EJ_NBR_CURRENT) continue;
     ej_real rmax = ej_set_rmax(s, s->fields[s->f_rb].data);
     /* the ghosts are also the candidates of the rows of s's interaction partners, whose reach
@@ -2335,6 +2342,7 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
       EJ_TRY_GOTO(rc, ej_nbrlist_create(&in->list), out_destroy);
       if (EJ_HAS_OP(in->ops, ej_interaction_ops, both_ways)) EJ_TRY_GOTO(rc, ej_nbrlist_create(&in->list_ba), out_destroy);
       in->a->in_interaction = in->b->in_interaction = true;
+      if (EJ_HAS_OP(in->ops, ej_interaction_ops, needs_images)) in->a->wants_images = in->b->wants_images = true;
     }
     EJ_TRY_GOTO(rc, ej_located(in->ops->create(in->config, in->a, in->b, &in->state), &si->loc), out_destroy);
     in->pre_slot = ej_inter_pre_slot(in);

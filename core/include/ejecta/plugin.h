@@ -508,6 +508,12 @@ typedef struct ej_interaction_ops {
    * EJ_MAX_STATE. May be NULL. */
   ej_err (*save_state)(const void *state, ej_real *buf, int max, int *n);
   ej_err (*load_state)(void *state, const ej_real *buf, int n);
+  /* --- ABI 1.9. The pairs need both sets' mirror and periodic images, so that a pair across a
+   * symmetry plane or periodic face acts on both sides: a set with no neighbour list of its own (a
+   * rigid_body without normals) then gets its images for this interaction too (kernel_contact).
+   * false (or an older table): only sets with a list of their own have images (sph_wall's wall set
+   * must have none). */
+  bool needs_images;
 } ej_interaction_ops;
 
 /* ------------------------------------------------------------------ registration */

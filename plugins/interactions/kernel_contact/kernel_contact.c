@@ -354,6 +354,7 @@ static const ej_interaction_ops kc_ops = {
     .stable_dt = kc_stable_dt,
     .destroy = kc_destroy,
     .both_ways = true,
+    .needs_images = true, /* a rigid_body without normals next to a symmetry plane (README) */
     .n_passes = 1,
     .post_step = kc_post_step,
     .post_step_sums_only = true, /* work and force sums only: no particle field written */
