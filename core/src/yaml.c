@@ -58,10 +58,14 @@ static ej_err ej_yaml_next(ej_yreader *r, yaml_event_t *ev)
     return ej_error_input(&loc, "malformed YAML: %s (byte %zu; the scene must be UTF-8 text)",
                           p->problem ? p->problem : "unreadable input", p->problem_offset);
   }
+  /* a tab where a token was expected (libyaml: "cannot start any token"): say what it is */
+  const size_t at = p->problem_mark.index;
+  const bool tab = at < r->doc->text_len && r->doc->text[at] == '\t' && !(p->problem && strstr(p->problem, "tab"));
+  const char *hint = tab ? "; the character there is a tab: YAML indents with spaces, not tabs" : "";
   if (p->context)
-    return ej_error_input(&loc, "malformed YAML: %s (%s at line %d)", p->problem ? p->problem : "syntax error",
-                          p->context, (int)p->context_mark.line + 1);
-  return ej_error_input(&loc, "malformed YAML: %s", p->problem ? p->problem : "syntax error");
+    return ej_error_input(&loc, "malformed YAML: %s (%s at line %d)%s", p->problem ? p->problem : "syntax error",
+                          p->context, (int)p->context_mark.line + 1, hint);
+  return ej_error_input(&loc, "malformed YAML: %s%s", p->problem ? p->problem : "syntax error", hint);
 }
 
 static ej_err ej_node_new(ej_node_type type, ej_loc loc, ej_node **out)

@@ -235,6 +235,10 @@ START_TEST(test_bad_yaml)
   const ej_error_frame *c = ej_error_cause();
   ck_assert(strstr(c->msg, "malformed YAML") != NULL);
   ck_assert(c->where.line >= 2);
+  /* a tab indent: libyaml's "cannot start any token", with what the character is */
+  load_bad("ejecta: 1\ntime: {end: 1}\nmaterials:\n\tair: {rho0: 1}\n",
+           "cannot start any token (while scanning for the next token at line 4); the character there is a tab: "
+           "YAML indents with spaces, not tabs", 4, 1);
 }
 END_TEST
 
