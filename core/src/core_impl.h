@@ -388,6 +388,7 @@ struct ej_set {
   int f_hist[EJ_MAX_HIST]; /* fields of the strength model's history variables */
   bool in_interaction;     /* a two-set interaction lists it: x_build kept current */
   bool wants_images;       /* an interaction with needs_images (ABI 1.9) lists it: images even without a list */
+  bool has_images;         /* a symmetry or periodic boundary gives it images (ej_set_has_images, ABI 1.10) */
   ej_real due_d, due_e;    /* skin watch of the step: max d, max (R - R_build) + d - skin R_build, d = |x - x_build| */
   uint8_t *bond_flags;     /* [n_bonds] per CSR entry of a reference family */
   ej_off n_bonds;

@@ -444,6 +444,8 @@ int ej_material_n_hist(const ej_material *mat) { return mat ? mat->ops->n_hist :
 
 uint8_t *ej_set_bond_flags(const ej_set *s) { return s->bond_flags; }
 int64_t ej_set_list_builds(const ej_set *s) { return s->list_builds; }
+
+bool ej_set_has_images(const ej_set *s) { return s->has_images; }
 const ej_model *ej_set_model(const ej_set *s) { return s->model; }
 
 ej_real ej_set_time(const ej_set *s) { return s->t ? *s->t : 0; }

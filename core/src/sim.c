@@ -2344,6 +2344,21 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
       in->a->in_interaction = in->b->in_interaction = true;
       if (EJ_HAS_OP(in->ops, ej_interaction_ops, needs_images)) in->a->wants_images = in->b->wants_images = true;
     }
+  }
+  /* every interaction's wants_images is known: which sets get images (ej_set_has_images), before
+   * any create, so that a plugin that cannot take them refuses the scene at check time */
+  for (int i = 0; i < sim->n_sets; ++i) {
+    ej_set *s = sim->sets[i];
+    s->has_images = false;
+    if (s->nbr_config == EJ_NBR_NONE && !s->wants_images) continue;
+    for (int b = 0; b < scene->n_bcs; ++b) {
+      const ej_scene_bc *bc = &scene->bcs[b];
+      if ((bc->kind == EJ_BC_SYMMETRY || bc->kind == EJ_BC_PERIODIC) && ej_bc_applies(bc, s->index)) s->has_images = true;
+    }
+  }
+  for (int k = 0; k < sim->n_inter; ++k) {
+    ej_inter *in = &sim->inter[k];
+    const ej_scene_interaction *si = &scene->interactions[k];
     EJ_TRY_GOTO(rc, ej_located(in->ops->create(in->config, in->a, in->b, &in->state), &si->loc), out_destroy);
     in->pre_slot = ej_inter_pre_slot(in);
   }

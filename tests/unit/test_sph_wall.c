@@ -395,7 +395,8 @@ END_TEST
 
 START_TEST(test_wall_ghosts_refused)
 {
-  /* an SPH wall set (fixed by a boundary condition) under a symmetry plane has ghosts: refused */
+  /* an SPH wall set (fixed by a boundary condition) under a symmetry plane gets images: refused by
+   * the interaction's create (so `ejecta check` finds it) at the interaction's line (12) */
   wrun c;
   ej_err rc = wrun_open(&c,
                         "ejecta: 1\ndimension: 2\ntime: {end: 0.001, cfl: 0.3}\noutput: {file: %s}\n"
@@ -408,11 +409,26 @@ START_TEST(test_wall_ghosts_refused)
                         "interactions:\n  - {model: sph_wall, sets: [fluid, wall]}\n"
                         "boundaries:\n  - symmetry: {point: [0, 0], normal: [1, 0]}\n  - {fix: [x, y], set: wall}\n",
                         "out.h5");
-  if (rc == EJ_OK) rc = ej_sim_run(c.r.sim);
-  ck_assert_int_ne(rc, EJ_OK);
+  ck_assert_int_eq(rc, EJ_ERR_INPUT);
   ck_assert_ptr_nonnull(ej_error_cause());
-  ck_assert_ptr_nonnull(strstr(ej_error_cause()->msg, "ghost particles"));
+  ck_assert_ptr_nonnull(strstr(ej_error_cause()->msg, "wall set 'wall' gets mirror or periodic images"));
+  ck_assert_int_eq(ej_error_cause()->where.line, 12);
   ej_error_clear();
+  vscene_free(&c);
+  /* the same boundary restricted to the SPH set: accepted, and the wall set has no images */
+  rc = wrun_open(&c,
+                 "ejecta: 1\ndimension: 2\ntime: {end: 0.0002, cfl: 0.3}\noutput: {file: %s}\n"
+                 "materials:\n  water: {rho0: 1000, eos: {model: polynomial, rho0: 1000, C1: 2e5}}\n"
+                 "sets:\n  fluid: {method: sph, material: water, shape: {box: {min: [0, 0], max: [0.1, 0.1]}}, "
+                 "spacing: 0.01}\n"
+                 "  wall: {method: sph, material: water, shape: {box: {min: [-0.03, -0.03], max: [0.2, 0]}}, "
+                 "spacing: 0.01}\n"
+                 "interactions:\n  - {model: sph_wall, sets: [fluid, wall]}\n"
+                 "boundaries:\n  - symmetry: {point: [0, 0], normal: [1, 0]}\n    set: fluid\n"
+                 "  - {fix: [x, y], set: wall}\n",
+                 "out.h5");
+  ck_assert_int_eq(rc, EJ_OK);
+  ck_assert_int_eq(ej_sim_run(c.r.sim), EJ_OK);
   vscene_free(&c);
 }
 END_TEST

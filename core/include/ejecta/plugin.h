@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 9 /* members appended to an info or ops struct        */
+#define EJ_ABI_MINOR 10 /* members appended to an info or ops struct; services added */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -259,6 +259,13 @@ uint8_t *ej_set_bond_flags(const ej_set *s);
  * per entry, the position of the row's particle in its neighbour's row). 0 before the first
  * build; a restart starts again from 0. */
 int64_t ej_set_list_builds(const ej_set *s);
+
+/* --- ABI 1.10. Whether the set gets mirror or periodic images (ghost particles): a symmetry or
+ * periodic boundary applies to it and it has a neighbour list of its own or is a partner of an
+ * interaction with needs_images. Known from the interactions' create on (so a plugin that cannot
+ * take images refuses the scene at check time); whether a given step has any ghosts also depends
+ * on the particles' distance to the planes (ej_set_count_all). */
+bool ej_set_has_images(const ej_set *s);
 
 /* ------------------------------------------------------------------ EOS */
 
