@@ -9,7 +9,9 @@
  * - a Drucker-Prager block sliding on a no-slip floor under gravity and settling: the energy budget
  *   closes with the plastic work booked by sph (one material update per step, the wall's L_wall in
  *   it), and the run is bitwise identical on 1 and 2 threads;
- * - a wall set with ghost particles is refused with a message;
+ * - a wall set under a symmetry plane is refused at create, at the interaction's line;
+ * - with correction: true the wall particles enter B_i as they enter L_i, so a linear velocity
+ *   field over the block and the wall rows gives the exact gradient next to the wall;
  * - viscosity_velocity: wall: the wall pairs' Monaghan viscosity of a liquid block driven onto
  *   the floor equals the sum on v_i - v_w (the wall's own velocity) for free and no slip; the
  *   default (extrapolated) gives no viscous wall term for free slip and the larger Adami Eq 23
@@ -393,6 +395,76 @@ START_TEST(test_dp_block_energy_threads)
 }
 END_TEST
 
+/* The wall's share of a corrected velocity gradient (correction: true with wall_gradient, no slip):
+ * fluid and wall rows move with the linear field v = (A y, -E y), so every particle's L_i must be
+ * the exact G = [[0, A], [0, -E]] once the wall particles are in B_i as they are in the sum of L_i
+ * (sph's B_wall, sph README "Walls in the corrected gradient"). Evaluated at t = 0 (sph_create's
+ * first force evaluation): d_rate = sym L_i, rho_dot = -rho tr L_i. Returns the largest error of
+ * d_rate over the block's particles relative to |G| and of the first row only in *first. */
+#define CG_A 10.0
+#define CG_E 5.0
+static double corrected_wall_gradient(const char *kernel, double *first, int *fallbacks)
+{
+  char rows[8192];
+  size_t len = 0;
+  for (int k = -3; k < 10; ++k) { /* rows of the wall (k < 0) and of the block, dx 5 mm */
+    const double y = (k + 0.5) * 0.005;
+    len += (size_t)snprintf(rows + len, sizeof rows - len,
+                            "      - {region: {box: {min: [-1, %.4f], max: [1, %.4f]}}, velocity: [%.17g, %.17g]}\n",
+                            y - 0.0025, y + 0.0025, CG_A * y, -CG_E * y);
+  }
+  ck_assert_uint_lt(len, sizeof rows - 1);
+  wrun c;
+  ej_err rc = wrun_open(&c,
+                        "ejecta: 1\ndimension: 2\ntime: {end: 1e-4, cfl: 0.3}\noutput: {file: %s}\n"
+                        "materials:\n  rubber: {model: elastic, rho0: 1000, E: 2 MPa, nu: 0.3}\n"
+                        "sets:\n  block:\n    method: sph\n    strength: true\n    correction: true\n"
+                        "    material: rubber\n    kernel: %s\n"
+                        "    shape: {box: {min: [0, 0], max: [0.1, 0.05]}}\n    spacing: 0.005\n    initial:\n%s"
+                        "  wall:\n    method: sph\n    strength: true\n    material: rubber\n    kernel: %s\n"
+                        "    shape: {box: {min: [-0.03, -0.015], max: [0.13, 0]}}\n    spacing: 0.005\n    initial:\n%s"
+                        "interactions:\n  - {model: sph_wall, sets: [block, wall], kernel: %s, slip: no_slip}\n",
+                        "out.h5", kernel, rows, kernel, rows, kernel);
+  if (rc != EJ_OK) ej_error_report("test");
+  ck_assert_int_eq(rc, EJ_OK);
+  ej_set *b = wrun_set(&c, "block");
+  const ej_real *x = ej_set_field(b, "x"), *d = ej_set_field(b, "d_rate"), *rho = ej_set_field(b, "rho");
+  const ej_real *rd = ej_set_field(b, "rho_dot");
+  const int32_t *fb = ej_set_field_int(b, "corr_fallbacks");
+  ck_assert(x && d && rho && rd && fb);
+  const double exact[6] = {0, -CG_E, 0, 0.5 * CG_A, 0, 0}, gn = sqrt(CG_A * CG_A + CG_E * CG_E);
+  double worst = 0, worst1 = 0;
+  *fallbacks = 0;
+  for (ej_idx i = 0; i < b->n; ++i) {
+    double e = fabs(rd[i] - rho[i] * CG_E); /* -rho tr G = rho E */
+    e /= rho[i];
+    for (int q = 0; q < 6; ++q) e = fmax(e, fabs(d[6 * i + q] - exact[q]));
+    worst = fmax(worst, e / gn);
+    if (x[3 * i + 1] < 0.005) worst1 = fmax(worst1, e / gn);
+    *fallbacks += fb[i];
+  }
+  *first = worst1;
+  vscene_free(&c);
+  return worst;
+}
+
+START_TEST(test_wall_gradient_corrected)
+{
+  for (int k = 0; k < 2; ++k) {
+    const char *kernel = k ? "wendland_c2" : "cubic_spline";
+    double first;
+    int fb;
+    const double worst = corrected_wall_gradient(kernel, &first, &fb);
+    fprintf(stderr,
+            "corrected gradient next to a no-slip wall (%s, v = (%g y, -%g y)): largest error of sym L over the "
+            "block %.2e of |G| (first row %.2e), %d correction fallbacks\n",
+            kernel, CG_A, CG_E, worst, first, fb);
+    ck_assert_int_eq(fb, 0);
+    ck_assert_double_lt(worst, 1e-10);
+  }
+}
+END_TEST
+
 START_TEST(test_wall_ghosts_refused)
 {
   /* an SPH wall set (fixed by a boundary condition) under a symmetry plane gets images: refused by
@@ -536,6 +608,7 @@ static Suite *sph_wall_suite(void)
   tcase_add_test(tc, test_wall_velocity_gradient);
   tcase_add_test(tc, test_dp_block_energy_threads);
   tcase_add_test(tc, test_wall_ghosts_refused);
+  tcase_add_test(tc, test_wall_gradient_corrected);
   tcase_add_test(tc, test_viscosity_velocity);
   suite_add_tcase(s, tc);
   return s;

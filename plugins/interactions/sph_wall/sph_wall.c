@@ -8,7 +8,8 @@
  * Gather form in two passes (both_ways; the core calls pass 0 then pass 1, each first over the
  * SPH set's ranges, then over the wall set's ranges, with ghosts refreshed in between), and for a
  * solid with wall_gradient a pre-pass (pass -1, n_pre_passes = 1: before sph's own passes) that
- * writes the wall's share of the velocity gradient into sph's field L_wall (sw_grad_pass):
+ * adds the wall's share of the velocity gradient (with sph's correction, of B_i too) to sph's
+ * fields L_wall (and B_wall), which sph consumes and zeroes (sw_grad_pass):
  *  pass 0, wall side: each wall particle w extrapolates from its SPH neighbours f (owned and
  *    ghost), with W_wf = W(|x_w - x_f|, h_f) and r_wf = x_w - x_f,
  *      sigma_w = [sum_f sigma_f W_wf - ((g - a_w) . sum_f rho_f r_wf W_wf) I] / sum_f W_wf
@@ -325,14 +326,22 @@ static inline bool sw_pair(int kernel, int dim, const ej_real *xi, const ej_real
 }
 
 /* Pre-pass (pass -1, before sph's passes) over solid SPH particles r: the wall's share of the
- * velocity gradient, written to sph's scratch field L_wall, which sph_solid_stress_pass adds to
- * its own L_i before the single material update of the step (rate of deformation and spin):
+ * velocity gradient, added to sph's scratch field L_wall, which sph_solid_stress_pass adds to
+ * its own L_i before the single material update of the step (rate of deformation and spin), and
+ * zeroes:
  *   L_w,i = sum_w vol0_w (v_w - v_i) (x) grad_i W(x_i - x_w, h_i)
  * the wall particles as SPH neighbours of i in 001 Eq 1.6 (Peng et al. 2019's dummy particles in
  * the strain rate), with the wall's own velocity v_w as in the continuity and energy terms. Free
  * slip keeps only the normal part (n . L_w n) n (x) n (no shear, no spin from a frictionless wall).
  * sph's continuity rho_dot = -rho tr L then holds the wall's compression, so the fluid pass adds
- * no drho for these particles. x and v are those of t_n+1; h_i is the previous evaluation's. */
+ * no drho for these particles. With sph's correction the wall's share of B_i,
+ *   B_w,i = sum_w vol0_w (x_w - x_i) (x) grad_i W(x_i - x_w, h_i),
+ * is added to sph's B_wall, which sph's correction pass adds to B_i before inverting it, and sph
+ * multiplies L_w,i by that L_corr,i: the wall particles are neighbours in B_i as in L_i, so a
+ * linear velocity field gives the exact gradient next to the wall (Bonet & Lok 1999's condition
+ * over the whole neighbourhood; before 2026-12-03 L_w,i was added uncorrected to a sum corrected
+ * over the set's own neighbours only: sph README "Walls in the corrected gradient"). x and v are
+ * those of t_n+1; h_i is the previous evaluation's (sph's setup value at t = 0). */
 static ej_err sw_grad_pass(const sw_state *s, ej_set *fl, ej_set *wall, const ej_nbr *fw, ej_range r)
 {
   const int dim = ej_set_dim(fl);
@@ -340,15 +349,14 @@ static ej_err sw_grad_pass(const sw_state *s, ej_set *fl, ej_set *wall, const ej
   const ej_real *xf = ej_set_field(fl, "x"), *vf = ej_set_field(fl, "v"), *hf = ej_set_field(fl, "h");
   const ej_real *xw = ej_set_field(wall, "x"), *vw = ej_set_field(wall, "v"), *volw = ej_set_field(wall, "vol0");
   ej_real *Lwall = ej_set_field(fl, "L_wall");
+  ej_real *Bwall = ej_set_field(fl, "B_wall"); /* sph with correction: true only */
   EJ_ENSURE(xf && vf && hf && xw && vw && volw && Lwall, EJ_ERR_INTERNAL, "sph_wall: fields missing");
   const ej_real sigma_k = sph_kernel_sigma(c->kernel, dim);
   for (ej_idx i = r.begin; i < r.end; ++i) {
-    ej_real *Lw = Lwall + 9 * (size_t)i;
-    for (int q = 0; q < 9; ++q) Lw[q] = 0;
     const ej_real h = hf[i];
     if (!(h > 0)) continue;
     const ej_real ih = 1.0 / h, dwfac = sigma_k * sph_inv_pow(ih, dim + 1);
-    ej_real nrm[3] = {0, 0, 0};
+    ej_real Lw[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, Bw[6] = {0, 0, 0, 0, 0, 0}, nrm[3] = {0, 0, 0};
     int n_wall = 0;
     for (ej_off k = fw->off[i]; k < fw->off[i + 1]; ++k) {
       const ej_idx w = fw->idx[k];
@@ -357,21 +365,32 @@ static ej_err sw_grad_pass(const sw_state *s, ej_set *fl, ej_set *wall, const ej
       const ej_real dv[3] = {vw[3 * w] - vf[3 * i], vw[3 * w + 1] - vf[3 * i + 1], vw[3 * w + 2] - vf[3 * i + 2]};
       for (int a = 0; a < 3; ++a)
         for (int q = 0; q < 3; ++q) Lw[3 * a + q] += volw[w] * dv[a] * g[q];
+      /* B_i's wall share, sum V_w (x_w - x_i) (x) grad_i W (symmetric: dx is parallel to g) */
+      const ej_real vb = volw[w];
+      Bw[0] += vb * dx[0] * g[0], Bw[1] += vb * dx[1] * g[1], Bw[2] += vb * dx[2] * g[2];
+      Bw[3] += vb * dx[0] * g[1], Bw[4] += vb * dx[1] * g[2], Bw[5] += vb * dx[2] * g[0];
       for (int q = 0; q < 3; ++q) nrm[q] += dx[q] * dwdr; /* dW/dr < 0, x_w - x_i: away from the wall */
       ++n_wall;
     }
-    if (n_wall == 0 || c->slip != SW_FREE_SLIP) continue;
-    const ej_real nl = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
-    if (!(nl > 0)) {
-      for (int q = 0; q < 9; ++q) Lw[q] = 0;
-      continue;
+    if (n_wall == 0) continue;
+    if (c->slip == SW_FREE_SLIP) {
+      const ej_real nl = sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+      if (nl > 0) {
+        const ej_real n[3] = {nrm[0] / nl, nrm[1] / nl, nrm[2] / nl};
+        ej_real Ln[3];
+        ej_m3_apply(Ln, Lw, n);
+        const ej_real lnn = n[0] * Ln[0] + n[1] * Ln[1] + n[2] * Ln[2];
+        for (int a = 0; a < 3; ++a)
+          for (int q = 0; q < 3; ++q) Lw[3 * a + q] = lnn * n[a] * n[q];
+      } else {
+        for (int q = 0; q < 9; ++q) Lw[q] = 0;
+      }
     }
-    const ej_real n[3] = {nrm[0] / nl, nrm[1] / nl, nrm[2] / nl};
-    ej_real Ln[3];
-    ej_m3_apply(Ln, Lw, n);
-    const ej_real lnn = n[0] * Ln[0] + n[1] * Ln[1] + n[2] * Ln[2];
-    for (int a = 0; a < 3; ++a)
-      for (int q = 0; q < 3; ++q) Lw[3 * a + q] = lnn * n[a] * n[q];
+    /* added, not stored: sph zeroes both after use, so two sph_wall interactions on one set sum */
+    ej_real *L = Lwall + 9 * (size_t)i;
+    for (int q = 0; q < 9; ++q) L[q] += Lw[q];
+    if (Bwall)
+      for (int q = 0; q < 6; ++q) Bwall[6 * (size_t)i + q] += Bw[q];
   }
   return EJ_OK;
 }

@@ -315,10 +315,18 @@ static ej_err sph_declare(const void *config, int dim, ej_decl *d)
         {.name = "v_xsph", .kind = EJ_VEC3, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "m/s",
          .doc = "XSPH velocity correction eps sum_j (m_j/rhobar_ij) (v_j - v_i) W_ij (xsph > 0)."},
         {.name = "L_wall", .kind = EJ_TENSOR9, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "1/s",
-         .doc = "Velocity gradient from wall interactions (sph_wall fills it before the stress pass; zero "
-                "without walls), added to L_i before the material update."},
+         .doc = "Velocity gradient from wall interactions, sum_w V_w (v_w - v_i) (x) grad_i W_iw (sph_wall adds it "
+                "before sph's passes; zero without walls), added to L_i before the material update (with "
+                "correction: times L_corr,i) and zeroed."},
     };
     for (size_t k = 0; k < sizeof solid / sizeof solid[0]; ++k) EJ_TRY(ej_decl_field(d, &solid[k]));
+    if (cfg->correction) {
+      static const ej_field_decl bw = {
+          .name = "B_wall", .kind = EJ_SYM6, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_NO_GHOST, .unit = "1",
+          .doc = "The walls' share sum_w V_w (x_w - x_i) (x) grad_i W_iw of B_i (sph_wall adds it before sph's "
+                 "passes; zero without walls), added before B_i is inverted into L_corr, and zeroed."};
+      EJ_TRY(ej_decl_field(d, &bw));
+    }
     if (cfg->visc_switch == SPH_VSW_BALSARA) {
       static const ej_field_decl sw = {
           .name = "visc_switch", .kind = EJ_SCALAR, .flags = EJ_FIELD_SCRATCH, .unit = "1",
@@ -633,12 +641,16 @@ typedef struct sph_pair_args {
 static inline SPH_ALWAYS_INLINE void sph_corr_rows(const int kernel, const int dim, const ej_real *restrict x,
                                                     const ej_real *restrict m, const ej_real *restrict rho,
                                                     const ej_real *restrict h, const ej_off *restrict off,
-                                                    const ej_idx *restrict idx, ej_real *restrict L,
-                                                    int32_t *restrict fallbacks, ej_range rg)
+                                                    const ej_idx *restrict idx, ej_real *restrict Bw,
+                                                    ej_real *restrict L, int32_t *restrict fallbacks, ej_range rg)
 {
   const ej_real sigma = sph_kernel_sigma(kernel, dim);
   for (ej_idx i = rg.begin; i < rg.end; ++i) {
     ej_real b[6] = {0, 0, 0, 0, 0, 0}; /* xx yy zz xy yz zx */
+    /* the walls' share (B_wall, filled by sph_wall's pre-pass): wall particles are neighbours in
+     * B_i as they are in L_i, so the corrected gradient stays exact for a linear field next to a wall */
+    if (Bw)
+      for (int q = 0; q < 6; ++q) b[q] = Bw[6 * (size_t)i + q], Bw[6 * (size_t)i + q] = 0.0;
     for (ej_off k = off[i]; k < off[i + 1]; ++k) {
       const ej_idx j = idx[k];
       const ej_real rx = x[3 * i] - x[3 * j];
@@ -704,12 +716,13 @@ static ej_err sph_corr_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, 
   const ej_real *x = ej_set_field(set, "x"), *m = ej_set_field(set, "m"), *rho = ej_set_field(set, "rho");
   const ej_real *h = ej_set_field(set, "h");
   ej_real *L = ej_set_field(set, "L_corr");
+  ej_real *Bw = ej_set_field(set, "B_wall"); /* strength sets with correction; zeroed after use */
   int32_t *fb = ej_set_field_int(set, "corr_fallbacks");
   EJ_ENSURE(x && m && rho && h && L && fb && nbr, EJ_ERR_INTERNAL, "set '%s': sph correction fields missing",
             s->set_name);
 #define SPH_CORR_CASE(k, d)                                                                             \
   case (k) * 4 + (d):                                                                                   \
-    sph_corr_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, L, fb, r);                                \
+    sph_corr_rows((k), (d), x, m, rho, h, nbr->off, nbr->idx, Bw, L, fb, r);                            \
     break
   switch (s->cfg.kernel * 4 + s->dim) {
     SPH_FOR_EACH_KERNEL_DIM(SPH_CORR_CASE);
@@ -1839,6 +1852,23 @@ static void sph_solid_art_stress(int dim, ej_real eps, const ej_real s[6], ej_re
   ej_s6_from_eig(R, lam, V);
 }
 
+/* Adds the walls' share of the velocity gradient to Lv (row-major 3 x 3, L[a][q] = d v_a / d x_q)
+ * and zeroes it for the next evaluation's sum: Lw = sum_w V_w (v_w - v_i) (x) grad_i W_iw as
+ * sph_wall added it (a free-slip wall: its normal part); with the correction, that with the
+ * corrected gradient L_corr,i grad_i W_iw, i.e. Lw L_corr,i (L_corr symmetric, Voigt xx yy zz xy yz
+ * zx), the correction of the set's own pairs, whose B_i holds the walls' share B_wall. */
+static inline void sph_add_wall_gradient(ej_real *restrict Lw, const ej_real *restrict Lc, ej_real *restrict Lv)
+{
+  if (Lc) {
+    const ej_real C[9] = {Lc[0], Lc[3], Lc[5], Lc[3], Lc[1], Lc[4], Lc[5], Lc[4], Lc[2]};
+    for (int a = 0; a < 3; ++a)
+      for (int q = 0; q < 3; ++q) Lv[3 * a + q] += Lw[3 * a] * C[q] + Lw[3 * a + 1] * C[3 + q] + Lw[3 * a + 2] * C[6 + q];
+  } else {
+    for (int k = 0; k < 9; ++k) Lv[k] += Lw[k];
+  }
+  for (int k = 0; k < 9; ++k) Lw[k] = 0.0;
+}
+
 /* Solid pass 2 (per particle, reads neighbours' x, v, rho, m, h): velocity gradient, density
  * rate, objective rotation, the material's update, sound speed, sigma/rho^2 and R. */
 static ej_err sph_solid_stress_pass(const sph_state *s, ej_set *set, const ej_nbr *nbr, ej_range r)
@@ -1852,7 +1882,7 @@ static ej_err sph_solid_stress_pass(const sph_state *s, ej_set *set, const ej_nb
   ej_real *wp_inc = ej_set_field(set, "wp_inc"), *wp_dot = ej_set_field(set, "w_plastic_dot");
   ej_real *sr2 = ej_set_field(set, "sigma_rho2"), *R = ej_set_field(set, "art_stress");
   const ej_real *L = s->cfg.correction ? ej_set_field(set, "L_corr") : NULL;
-  const ej_real *L_wall = ej_set_field(set, "L_wall"); /* filled by sph_wall's pre-pass (or zero) */
+  ej_real *L_wall = ej_set_field(set, "L_wall"); /* added by sph_wall's pre-pass (or zero); zeroed here */
   int32_t *failed = ej_set_field_int(set, "failed");
   ej_real *fsw = s->cfg.visc_switch == SPH_VSW_BALSARA ? ej_set_field(set, "visc_switch") : NULL;
   EJ_ENSURE(x && v && m && h && e && rho && rho_dot && p && c && stress && d_rate && c_mat && wp_inc && wp_dot &&
@@ -1866,8 +1896,7 @@ static ej_err sph_solid_stress_pass(const sph_state *s, ej_set *set, const ej_nb
     sph_solid_velgrad(kernel, dim, x, v, m, rho, h, L, nbr->off, nbr->idx, i, Lv);
     /* the wall's share (sph_wall, Peng et al. 2019 / digest 001 §1.10: the dummy particles enter
      * L_i as SPH neighbours), so one material update sees the whole gradient, spin included */
-    if (L_wall)
-      for (int k = 0; k < 9; ++k) Lv[k] += L_wall[9 * (size_t)i + k];
+    if (L_wall) sph_add_wall_gradient(L_wall + 9 * (size_t)i, L ? L + 6 * (size_t)i : NULL, Lv);
     ej_m3_sym(d_rate + 6 * i, Lv);
     rho_dot[i] += -rho[i] * (Lv[0] + Lv[4] + Lv[8]);
     if (fsw) { /* Balsara (JCP 121 (1995) 357) with Springel's 1e-4 c/h floor; c of the last evaluation */
