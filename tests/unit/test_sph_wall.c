@@ -403,7 +403,8 @@ END_TEST
  * d_rate over the block's particles relative to |G| and of the first row only in *first. */
 #define CG_A 10.0
 #define CG_E 5.0
-static double corrected_wall_gradient(const char *kernel, double *first, int *fallbacks)
+static double corrected_wall_gradient(const char *kernel, bool split, double quad, double *first, int *fallbacks,
+                                      double **d_out, ej_idx *n_out)
 {
   char rows[8192];
   size_t len = 0;
@@ -411,20 +412,35 @@ static double corrected_wall_gradient(const char *kernel, double *first, int *fa
     const double y = (k + 0.5) * 0.005;
     len += (size_t)snprintf(rows + len, sizeof rows - len,
                             "      - {region: {box: {min: [-1, %.4f], max: [1, %.4f]}}, velocity: [%.17g, %.17g]}\n",
-                            y - 0.0025, y + 0.0025, CG_A * y, -CG_E * y);
+                            y - 0.0025, y + 0.0025, CG_A * y + quad * y * y, -CG_E * y);
   }
   ck_assert_uint_lt(len, sizeof rows - 1);
+  /* split: the same wall as two sets, x < 0.05 and x > 0.05, each with its own sph_wall (their
+   * shares of L_i and B_i must add up) */
+  char walls[2 * sizeof rows + 1024];
+  if (split)
+    snprintf(walls, sizeof walls,
+             "  wall:\n    method: sph\n    strength: true\n    material: rubber\n    kernel: %s\n"
+             "    shape: {box: {min: [-0.03, -0.015], max: [0.05, 0]}}\n    spacing: 0.005\n    initial:\n%s"
+             "  wall2:\n    method: sph\n    strength: true\n    material: rubber\n    kernel: %s\n"
+             "    shape: {box: {min: [0.05, -0.015], max: [0.13, 0]}}\n    spacing: 0.005\n    initial:\n%s"
+             "interactions:\n  - {model: sph_wall, sets: [block, wall], kernel: %s, slip: no_slip}\n"
+             "  - {model: sph_wall, sets: [block, wall2], kernel: %s, slip: no_slip}\n",
+             kernel, rows, kernel, rows, kernel, kernel);
+  else
+    snprintf(walls, sizeof walls,
+             "  wall:\n    method: sph\n    strength: true\n    material: rubber\n    kernel: %s\n"
+             "    shape: {box: {min: [-0.03, -0.015], max: [0.13, 0]}}\n    spacing: 0.005\n    initial:\n%s"
+             "interactions:\n  - {model: sph_wall, sets: [block, wall], kernel: %s, slip: no_slip}\n",
+             kernel, rows, kernel);
   wrun c;
   ej_err rc = wrun_open(&c,
                         "ejecta: 1\ndimension: 2\ntime: {end: 1e-4, cfl: 0.3}\noutput: {file: %s}\n"
                         "materials:\n  rubber: {model: elastic, rho0: 1000, E: 2 MPa, nu: 0.3}\n"
                         "sets:\n  block:\n    method: sph\n    strength: true\n    correction: true\n"
                         "    material: rubber\n    kernel: %s\n"
-                        "    shape: {box: {min: [0, 0], max: [0.1, 0.05]}}\n    spacing: 0.005\n    initial:\n%s"
-                        "  wall:\n    method: sph\n    strength: true\n    material: rubber\n    kernel: %s\n"
-                        "    shape: {box: {min: [-0.03, -0.015], max: [0.13, 0]}}\n    spacing: 0.005\n    initial:\n%s"
-                        "interactions:\n  - {model: sph_wall, sets: [block, wall], kernel: %s, slip: no_slip}\n",
-                        "out.h5", kernel, rows, kernel, rows, kernel);
+                        "    shape: {box: {min: [0, 0], max: [0.1, 0.05]}}\n    spacing: 0.005\n    initial:\n%s%s",
+                        "out.h5", kernel, rows, walls);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
   ej_set *b = wrun_set(&c, "block");
@@ -444,24 +460,45 @@ static double corrected_wall_gradient(const char *kernel, double *first, int *fa
     *fallbacks += fb[i];
   }
   *first = worst1;
+  if (d_out) {
+    *n_out = b->n;
+    *d_out = malloc((size_t)b->n * 6 * sizeof(double));
+    ck_assert_ptr_nonnull(*d_out);
+    memcpy(*d_out, d, (size_t)b->n * 6 * sizeof(double));
+  }
   vscene_free(&c);
   return worst;
 }
 
 START_TEST(test_wall_gradient_corrected)
 {
-  for (int k = 0; k < 2; ++k) {
-    const char *kernel = k ? "wendland_c2" : "cubic_spline";
+  for (int k = 0; k < 3; ++k) {
+    const char *kernel = k == 1 ? "wendland_c2" : "cubic_spline";
     double first;
     int fb;
-    const double worst = corrected_wall_gradient(kernel, &first, &fb);
+    const double worst = corrected_wall_gradient(kernel, k == 2, 0.0, &first, &fb, NULL, NULL);
     fprintf(stderr,
-            "corrected gradient next to a no-slip wall (%s, v = (%g y, -%g y)): largest error of sym L over the "
+            "corrected gradient next to a no-slip wall%s (%s, v = (%g y, -%g y)): largest error of sym L over the "
             "block %.2e of |G| (first row %.2e), %d correction fallbacks\n",
-            kernel, CG_A, CG_E, worst, first, fb);
+            k == 2 ? " of two sets, two sph_wall" : "", kernel, CG_A, CG_E, worst, first, fb);
     ck_assert_int_eq(fb, 0);
     ck_assert_double_lt(worst, 1e-10);
   }
+  /* any consistent subset of the wall is exact for a linear field, so the two interactions' shares
+   * adding up is checked on a quadratic one: v_x += 400 y^2 (d_rate next to the wall then depends on
+   * which wall particles enter), one wall set against the same wall as two sets */
+  double first, *d1 = NULL, *d2 = NULL;
+  int fb;
+  ej_idx n1 = 0, n2 = 0;
+  corrected_wall_gradient("cubic_spline", false, 400.0, &first, &fb, &d1, &n1);
+  corrected_wall_gradient("cubic_spline", true, 400.0, &first, &fb, &d2, &n2);
+  ck_assert_int_eq(n1, n2);
+  double diff = 0, dmax = 0;
+  for (ej_idx i = 0; i < 6 * n1; ++i) diff = fmax(diff, fabs(d1[i] - d2[i])), dmax = fmax(dmax, fabs(d1[i]));
+  fprintf(stderr, "quadratic field, one wall set against two (two sph_wall): max |d_rate difference| %.2e of max %.3g 1/s\n",
+          diff, dmax);
+  ck_assert_double_lt(diff, 1e-12 * dmax);
+  free(d1), free(d2);
 }
 END_TEST
 
