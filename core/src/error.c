@@ -18,6 +18,14 @@ static ej_error_frame *ej_error_next(ej_err code)
   return f;
 }
 
+/* vsnprintf into a frame's message; a message longer than the frame ends in "..." instead of
+ * being cut without a sign */
+static void ej_msg_vformat(char *dst, size_t size, const char *fmt, va_list ap)
+{
+  const int n = vsnprintf(dst, size, fmt, ap);
+  if (n >= 0 && (size_t)n >= size && size > 4) memcpy(dst + size - 4, "...", 4);
+}
+
 ej_err ej_error_push(ej_err code, const char *file, int line, const char *func, const char *fmt, ...)
 {
   ej_error_frame *f = ej_error_next(code);
@@ -28,7 +36,7 @@ ej_err ej_error_push(ej_err code, const char *file, int line, const char *func, 
   if (fmt) {
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(f->msg, sizeof f->msg, fmt, ap);
+    ej_msg_vformat(f->msg, sizeof f->msg, fmt, ap);
     va_end(ap);
   }
   return code;
@@ -46,7 +54,7 @@ ej_err ej_error_input(const ej_loc *where, const char *fmt, ...)
   }
   va_list ap;
   va_start(ap, fmt);
-  vsnprintf(f->msg, sizeof f->msg, fmt, ap);
+  ej_msg_vformat(f->msg, sizeof f->msg, fmt, ap);
   va_end(ap);
   return EJ_ERR_INPUT;
 }

@@ -120,13 +120,19 @@ static const char *ej_node_what(const ej_node *n, char *buf, size_t size)
 {
   if (n->type == EJ_NODE_MAP) return "a mapping";
   if (n->type == EJ_NODE_SEQ) return "a list";
-  snprintf(buf, size, n->quoted ? "a quoted string \"%.64s\"" : "'%.64s'", n->text);
+  /* a long value is cut at 60 characters, and the message says so and how long it was */
+  const size_t len = strlen(n->text);
+  if (len > 64)
+    snprintf(buf, size, n->quoted ? "a quoted string \"%.60s...\" (%zu characters)" : "'%.60s...' (%zu characters)",
+             n->text, len);
+  else
+    snprintf(buf, size, n->quoted ? "a quoted string \"%s\"" : "'%s'", n->text);
   return buf;
 }
 
 static ej_err ej_wrong_type(const ej_param *p, const ej_node *v, const char *what)
 {
-  char eb[320], gb[96];
+  char eb[320], gb[128];
   return ej_error_input(&v->loc, "'%s' in %s must be %s, got %s", p->name, what, ej_param_expected(p, eb, sizeof eb),
                         ej_node_what(v, gb, sizeof gb));
 }
@@ -167,7 +173,7 @@ static ej_err ej_param_real(const ej_param *p, const ej_node *v, const char *wha
                             ej_real *out)
 {
   if (v->type != EJ_NODE_SCALAR || v->quoted) {
-    char gb[96];
+    char gb[128];
     const char *unit = ej_param_unit(p);
     return ej_error_input(&v->loc, "%s must be a number%s%s%s, got %s", subject, ej_unit_is_plain(unit) ? "" : " (",
                           ej_unit_is_plain(unit) ? "" : unit, ej_unit_is_plain(unit) ? "" : ")",
@@ -316,7 +322,7 @@ ej_err ej_params_apply(const ej_param *table, void *config, const ej_node *map, 
   EJ_ENSURE(what, EJ_ERR_ARG, "NULL what");
   EJ_TRY(ej_params_defaults(table, config));
   if (map && map->type != EJ_NODE_MAP) {
-    char gb[96];
+    char gb[128];
     return ej_error_input(&map->loc, "%s must be a mapping, got %s", what, ej_node_what(map, gb, sizeof gb));
   }
   for (int i = 0; map && i < map->n; ++i) {

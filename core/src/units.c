@@ -21,6 +21,10 @@ typedef struct ej_unit_def {
   signed char e[EJ_NDIM];
 } ej_unit_def;
 
+/* A value quoted in a message: at most 60 characters of a longer one, then "..." (the message keeps
+ * its place for the rest: what was expected). Expands to the three arguments of '%.*s%s'. */
+#define EJ_SHOWN(len, p) (int)((len) > 64 ? 60 : (len)), (p), ((len) > 64 ? "..." : "")
+
 static const ej_unit_def ej_unit_defs[] = {
     {"m", 1, {1, 0, 0, 0, 0}},        {"cm", 1e-2, {1, 0, 0, 0, 0}},   {"mm", 1e-3, {1, 0, 0, 0, 0}},
     {"um", 1e-6, {1, 0, 0, 0, 0}},    {"km", 1e3, {1, 0, 0, 0, 0}},    {"s", 1, {0, 0, 1, 0, 0}},
@@ -205,12 +209,12 @@ ej_err ej_units_parse_as(const char *text, const char *declared_unit, const ej_l
   size_t tlen = strlen(p);
   while (tlen && isspace((unsigned char)p[tlen - 1])) --tlen;
   if (nlen == 0) {
-    snprintf(msg, sizeof msg, "expected a number, got '%.*s'", (int)tlen, p);
+    snprintf(msg, sizeof msg, "expected a number, got '%.*s%s'", EJ_SHOWN(tlen, p));
     return ej_units_error(loc, subject, msg);
   }
   char num[64];
   if (nlen >= sizeof num) {
-    snprintf(msg, sizeof msg, "number '%.*s' is too long", (int)tlen, p);
+    snprintf(msg, sizeof msg, "number '%.*s%s' is too long", EJ_SHOWN(tlen, p));
     return ej_units_error(loc, subject, msg);
   }
   memcpy(num, p, nlen);
@@ -225,20 +229,20 @@ ej_err ej_units_parse_as(const char *text, const char *declared_unit, const ej_l
   } else {
     char ubuf[128];
     if (ulen >= sizeof ubuf) {
-      snprintf(msg, sizeof msg, "unit in '%.*s' is too long", (int)tlen, p);
+      snprintf(msg, sizeof msg, "unit in '%.*s%s' is too long", EJ_SHOWN(tlen, p));
       return ej_units_error(loc, subject, msg);
     }
     memcpy(ubuf, u, ulen);
     ubuf[ulen] = '\0';
     /* "1,000" or "3..4" are bad numbers, not bad units. */
     if (!isalpha((unsigned char)ubuf[0]) && ubuf[0] != '1') {
-      snprintf(msg, sizeof msg, "expected a number, got '%.*s'", (int)tlen, p);
+      snprintf(msg, sizeof msg, "expected a number, got '%.*s%s'", EJ_SHOWN(tlen, p));
       return ej_units_error(loc, subject, msg);
     }
     ej_unit_status st = ej_unit_expr(ubuf, &got, bad, sizeof bad);
     /* "0x10" or "1d5" glued to the number are number typos, not unknown units. */
     if (st != EJ_UNIT_OK && u == p + nlen && ej_stray_digit(ubuf)) {
-      snprintf(msg, sizeof msg, "expected a number, got '%.*s'", (int)tlen, p);
+      snprintf(msg, sizeof msg, "expected a number, got '%.*s%s'", EJ_SHOWN(tlen, p));
       return ej_units_error(loc, subject, msg);
     }
     if (st == EJ_UNIT_UNKNOWN) {
@@ -246,17 +250,17 @@ ej_err ej_units_parse_as(const char *text, const char *declared_unit, const ej_l
       for (int i = 0; i < EJ_N_UNITS; ++i) names[i] = ej_unit_defs[i].name;
       const char *near = ej_nearest_word(bad, names, EJ_N_UNITS);
       if (near) {
-        snprintf(msg, sizeof msg, "unknown unit '%s' in '%.*s'; did you mean '%s'?", bad, (int)tlen, p, near);
+        snprintf(msg, sizeof msg, "unknown unit '%s' in '%.*s%s'; did you mean '%s'?", bad, EJ_SHOWN(tlen, p), near);
       } else {
         char list[256];
         ej_unit_list(list, sizeof list);
-        snprintf(msg, sizeof msg, "unknown unit '%s' in '%.*s' (known units: %s)", bad, (int)tlen, p, list);
+        snprintf(msg, sizeof msg, "unknown unit '%s' in '%.*s%s' (known units: %s)", bad, EJ_SHOWN(tlen, p), list);
       }
       return ej_units_error(loc, subject, msg);
     }
     if (st == EJ_UNIT_SYNTAX) {
       snprintf(msg, sizeof msg,
-               "malformed unit '%s' in '%.*s' (write units like 'GPa', 'g/cm^3' or 'm/s^2')", ubuf, (int)tlen, p);
+               "malformed unit '%s' in '%.*s%s' (write units like 'GPa', 'g/cm^3' or 'm/s^2')", ubuf, EJ_SHOWN(tlen, p));
       return ej_units_error(loc, subject, msg);
     }
   }
@@ -268,17 +272,16 @@ ej_err ej_units_parse_as(const char *text, const char *declared_unit, const ej_l
     bool plain = strcmp(wn, "dimensionless") == 0;
     int n = snprintf(msg, sizeof msg, "%s%s", subject ? subject : "", subject ? " " : "");
     if (plain)
-      snprintf(msg + n, sizeof msg - (size_t)n, "expects a plain number without unit, got '%.*s' (%s)", (int)tlen,
-               p, gn);
+      snprintf(msg + n, sizeof msg - (size_t)n, "expects a plain number without unit, got '%.*s%s' (%s)", EJ_SHOWN(tlen, p), gn);
     else
-      snprintf(msg + n, sizeof msg - (size_t)n, "expects %s (%s), got '%.*s' (%s)", wn, declared_unit, (int)tlen, p,
+      snprintf(msg + n, sizeof msg - (size_t)n, "expects %s (%s), got '%.*s%s' (%s)", wn, declared_unit, EJ_SHOWN(tlen, p),
                gn);
     return ej_error_input(loc, "%s", msg);
   }
 
   double v = value * got.scale;
   if (!isfinite(v)) {
-    snprintf(msg, sizeof msg, "'%.*s' is out of the range of double precision numbers", (int)tlen, p);
+    snprintf(msg, sizeof msg, "'%.*s%s' is out of the range of double precision numbers", EJ_SHOWN(tlen, p));
     return ej_units_error(loc, subject, msg);
   }
   *si = v;

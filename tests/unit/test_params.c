@@ -153,6 +153,31 @@ START_TEST(test_wrong_type)
   expect_error("gamma: 1.4\npoint: [1, 2]\n", 2, 8, "'point' in eos 'gas' must be a list of 3 numbers, got 2");
   expect_error("gamma: 1.4\npoint: [1, 2, 3 s]\n", 2, 15, "'point[2]' in eos 'gas' expects a length (m)");
   expect_error("gamma: 1.4\nfailure: 3\n", 2, 10, "'failure' in eos 'gas' must be a mapping, got '3'");
+  /* a long value is cut at 60 characters with "..." (and, where the kind of value is named, its
+   * length), not silently */
+  expect_error("gamma: 'aaaaaaaaaabbbbbbbbbbccccccccccddddddddddeeeeeeeeeeffffffffffgggggggggg'\n", 1, 8,
+               "got a quoted string \"aaaaaaaaaabbbbbbbbbbccccccccccddddddddddeeeeeeeeeeffffffffff...\" (70 characters)");
+  expect_error("gamma: aaaaaaaaaabbbbbbbbbbccccccccccddddddddddeeeeeeeeeeffffffffffgggggggggg\n", 1, 8,
+               "expected a number, got 'aaaaaaaaaabbbbbbbbbbccccccccccddddddddddeeeeeeeeeeffffffffff...'");
+  {
+    /* a message longer than the error frame ends in "..." */
+    char key[700];
+    memset(key, 'k', sizeof key - 1);
+    key[sizeof key - 1] = '\0';
+    char doc[800];
+    snprintf(doc, sizeof doc, "gamma: 1.4\n%s: 1\n", key);
+    test_cfg cfg;
+    ej_doc *d = NULL;
+    ck_assert_int_eq(apply(doc, &cfg, NULL, &d), EJ_ERR_INPUT);
+    const ej_error_frame *f = ej_error_cause();
+    ck_assert_ptr_nonnull(f);
+    const size_t len = strlen(f->msg);
+    ck_assert_uint_eq(len, sizeof f->msg - 1);
+    ck_assert_str_eq(f->msg + len - 3, "...");
+    ck_assert_ptr_nonnull(strstr(f->msg, "unknown key 'kkkk"));
+    ej_error_clear();
+    ej_doc_destroy(d);
+  }
 }
 END_TEST
 
