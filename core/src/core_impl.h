@@ -65,6 +65,7 @@ struct ej_node {
   ej_loc loc;         /* start mark of the node */
   char *text;         /* EJ_NODE_SCALAR: the scalar text */
   bool quoted;        /* scalar was quoted (then never a number) */
+  bool path_resolved; /* text was made relative to the scene file's directory (EJ_PF_PATH) */
   int n;              /* number of items (SEQ) or pairs (MAP) */
   ej_node **items;    /* SEQ items, or MAP values */
   char **keys;        /* MAP keys */

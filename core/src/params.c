@@ -220,6 +220,30 @@ static bool ej_parse_bool(const char *s, bool *out)
   return false;
 }
 
+/* EJ_PF_PATH: a relative path is taken from the directory of the file that holds the value (the
+ * node's text is replaced once: the doc owns it, and a second apply of the same node, a material
+ * used by two sets, sees the resolved path), and the file must open for reading. */
+static ej_err ej_param_path(ej_node *v, const char *subject)
+{
+  if (!v->path_resolved && v->text[0] != '/' && v->loc.file) {
+    const char *slash = strrchr(v->loc.file, '/');
+    const size_t nd = slash ? (size_t)(slash - v->loc.file) + 1 : 0, nt = strlen(v->text);
+    if (nd > 0) {
+      char *t = ej_malloc(nd + nt + 1);
+      EJ_ENSURE(t, EJ_ERR_MEM, "out of memory");
+      memcpy(t, v->loc.file, nd);
+      memcpy(t + nd, v->text, nt + 1);
+      ej_free(v->text);
+      v->text = t;
+    }
+  }
+  v->path_resolved = true;
+  FILE *f = fopen(v->text, "r");
+  if (!f) return ej_error_input(&v->loc, "%s: cannot read file '%s' (%s)", subject, v->text, strerror(errno));
+  fclose(f);
+  return EJ_OK;
+}
+
 static ej_err ej_param_value(const ej_param *p, void *config, const ej_node *v, const char *what)
 {
   char *field = (char *)config + p->offset;
@@ -263,6 +287,7 @@ static ej_err ej_param_value(const ej_param *p, void *config, const ej_node *v, 
   }
   case EJ_PT_STRING:
     if (v->type != EJ_NODE_SCALAR) return ej_wrong_type(p, v, what);
+    if (p->flags & EJ_PF_PATH) EJ_TRY(ej_param_path((ej_node *)v, subject));
     *(const char **)field = v->text;
     return EJ_OK;
   case EJ_PT_REAL_ARRAY: {
@@ -391,7 +416,7 @@ static void ej_describe_fill(const ej_param *p, ej_describe_row *r)
     break;
   }
   case EJ_PT_STRING:
-    snprintf(r->type, sizeof r->type, "text");
+    snprintf(r->type, sizeof r->type, (p->flags & EJ_PF_PATH) ? "file" : "text");
     if (p->def_str) snprintf(r->def, sizeof r->def, "\"%s\"", p->def_str);
     break;
   case EJ_PT_REAL_ARRAY:
@@ -465,6 +490,7 @@ static ej_err ej_md_rows(ej_buf *out, const ej_param *table, const char *prefix)
     char type[32], name[160], choices[160] = "";
     snprintf(type, sizeof type, "%s", p->type <= EJ_PT_BLOCK ? types[p->type] : "?");
     if (p->type == EJ_PT_REAL_ARRAY) snprintf(type, sizeof type, "number[%d]", p->count);
+    if (p->type == EJ_PT_STRING && (p->flags & EJ_PF_PATH)) snprintf(type, sizeof type, "file");
     snprintf(name, sizeof name, "`%s%s`", prefix, p->name);
     if (p->type == EJ_PT_ENUM) ej_join(choices, sizeof choices, p->choices, ej_choice_count(p->choices), ", ");
     EJ_TRY(ej_buf_printf(out, "|"));

@@ -148,11 +148,12 @@ START_TEST(test_initial_stress_file)
   trun_dir(&r);
   is_write(&r);
   char y[1024];
+  /* a relative path is taken from the scene file's directory (the scene is r.dir/s.yaml), not from
+   * the working directory */
   snprintf(y, sizeof y,
            "ejecta: 1\ndimension: 2\ntime: {end: 1e-6}\n" MAT
-           "sets: {b: {method: tlpd, material: m, initial_stress: {file: %s/s.csv}, "
-           "shape: {box: {min: [0, 0], max: [0.1, 0.12]}}, spacing: 0.01}}\n",
-           r.dir);
+           "sets: {b: {method: tlpd, material: m, initial_stress: {file: s.csv}, "
+           "shape: {box: {min: [0, 0], max: [0.1, 0.12]}}, spacing: 0.01}}\n");
   ej_err rc = trun_try(&r, y);
   if (rc != EJ_OK) ej_error_report("test");
   ck_assert_int_eq(rc, EJ_OK);
@@ -195,12 +196,36 @@ START_TEST(test_initial_stress_file)
 
   /* uniform and file together: an input error */
   trun_dir(&r);
+  is_write(&r);
   snprintf(y, sizeof y,
            "ejecta: 1\ndimension: 2\ntime: {end: 1e-6}\n" MAT
-           "sets: {b: {method: tlpd, material: m, initial_stress: {file: x.csv, uniform: [1, 0, 0, 0, 0, 0]}, "
+           "sets: {b: {method: tlpd, material: m, initial_stress: {file: s.csv, uniform: [1, 0, 0, 0, 0, 0]}, "
            "shape: {box: {min: [0, 0], max: [0.1, 0.12]}}, spacing: 0.01}}\n");
   rc = trun_try(&r, y);
-  ck_assert_int_ne(rc, EJ_OK);
+  ck_assert_int_eq(rc, EJ_ERR_INPUT);
+  ck_assert_ptr_nonnull(strstr(ej_error_cause()->msg, "not both"));
+  ej_error_clear();
+  trun_close(&r);
+
+  /* a file that cannot be read: refused when the scene is loaded (ejecta check), at the value */
+  trun_dir(&r);
+  snprintf(y, sizeof y,
+           "ejecta: 1\ndimension: 2\ntime: {end: 1e-6}\n" MAT
+           "sets: {b: {method: tlpd, material: m, initial_stress: {file: none.csv}, "
+           "shape: {box: {min: [0, 0], max: [0.1, 0.12]}}, spacing: 0.01}}\n");
+  rc = trun_try(&r, y);
+  ck_assert_int_eq(rc, EJ_ERR_INPUT);
+  ck_assert_ptr_null(r.scene); /* the scene load itself refused it */
+  const ej_error_frame *f = ej_error_cause();
+  ck_assert_ptr_nonnull(strstr(f->msg, "cannot read file"));
+  ck_assert_ptr_nonnull(strstr(f->msg, "none.csv"));
+  {
+    int line = 1;
+    for (const char *c = y; *c && strncmp(c, "sets:", 5) != 0; ++c) line += *c == '\n';
+    ck_assert_int_eq(f->where.line, line);
+    ck_assert_ptr_nonnull(strstr(y, "{file: none.csv}"));
+    ck_assert_int_eq(f->where.col, (int)(strstr(y, "none.csv") - strstr(y, "sets:")) + 1);
+  }
   ej_error_clear();
   trun_close(&r);
 }

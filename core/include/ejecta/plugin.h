@@ -110,7 +110,11 @@ enum {
   EJ_PF_HAS_MAX = 1u << 2,
   EJ_PF_MIN_OPEN = 1u << 3, /* value must be > min, not >= */
   EJ_PF_MAX_OPEN = 1u << 4,
-  EJ_PF_EXPERT = 1u << 5
+  EJ_PF_EXPERT = 1u << 5,
+  /* EJ_PT_STRING naming a file the plugin reads (ABI 1.10): a relative path is taken from the
+   * directory of the scene file that holds the value (as a set's `file:`), and a file that cannot
+   * be opened for reading is bad input at the value's line:col, found by `ejecta check` */
+  EJ_PF_PATH = 1u << 6
 };
 
 /* One parameter: name is both the YAML key and the C field. unit is an SI unit

@@ -129,8 +129,8 @@ static const ej_param tlpd_init_stress_params[] = {
     EJ_PARAM_ARRAY(tlpd_init_stress_cfg, uniform, 6, "Pa", 0,
                    "Cauchy stress given to every particle at t = 0, Voigt order xx yy zz xy yz zx (tension "
                    "positive); default zero."),
-    EJ_PARAM_STRING(tlpd_init_stress_cfg, file, NULL, 0,
-                    "CSV file (path absolute or relative to the working directory) with a header line naming "
+    EJ_PARAM_STRING(tlpd_init_stress_cfg, file, NULL, EJ_PF_PATH,
+                    "CSV file (path absolute or relative to the scene file's directory) with a header line naming "
                     "the columns x, y, z (as many as the dimension) and any of sxx, syy, szz, sxy, syz, szx (Pa; "
                     "absent ones 0): each particle takes the stress of the row at its initial position (within "
                     "a quarter of its spacing; a particle without a row is an error). Not with uniform."),
