@@ -748,10 +748,14 @@ static ej_err ej_sets_create(ej_sim *sim)
 }
 
 /* Every method's setup (serial), on the sets' initial state. */
+/* The methods' setup on the initial state. A refusal of the input (a rigid body whose points lie on a
+ * line, a tlpd initial_stress row missing, a particle without mass) is tied to the set's place in the
+ * scene, as create's are; `ejecta check` runs it too. */
 static ej_err ej_sets_setup(ej_sim *sim)
 {
   for (int i = 0; i < sim->n_sets; ++i)
-    if (sim->sets[i]->mops->setup) EJ_TRY(sim->sets[i]->mops->setup(sim->sets[i]->mstate, sim->sets[i]));
+    if (sim->sets[i]->mops->setup)
+      EJ_TRY(ej_located(sim->sets[i]->mops->setup(sim->sets[i]->mstate, sim->sets[i]), &sim->scene->sets[i].loc));
   return EJ_OK;
 }
 
@@ -2367,6 +2371,9 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
   sim->out_path = ej_strdup(path);
   EJ_ENSURE(sim->out_path, EJ_ERR_MEM, "out of memory");
   if (opts && opts->check_only) {
+    /* the methods' setup too (it reads the initial state and what the scene points to: files,
+     * shapes), so that what it refuses is found before a run; nothing is written */
+    EJ_TRY_GOTO(rc, ej_sets_setup(sim), out_destroy);
     *out = sim;
     return EJ_OK;
   }

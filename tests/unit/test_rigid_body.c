@@ -465,6 +465,19 @@ static void rb_half_full(bool half, double Pb[3], double *dP, double *scale, dou
   rb_close(&R);
 }
 
+START_TEST(test_bad_body_at_check)
+{
+  /* what the method's setup refuses (points on a line: singular inertia) is found by `ejecta check`
+   * (check_only runs the methods' setup) and placed at the set (line 8, column 3) */
+  const ej_plugin_info *p[] = {ej_plugin_rigid_body_info()};
+  vrun_refuses_text_with("rb_line", p, 1,
+                         "ejecta: 1\ndimension: 3\ntime: {end: 1e-5}\noutput: {file: o.h5}\n"
+                         "materials:\n  steel: {rho0: 7800}\nsets:\n  rod: {method: rigid_body, material: steel, "
+                         "shape: {box: {min: [0, 0, 0], max: [0.1, 0.01, 0.01]}}, spacing: 0.01}\n",
+                         "has a singular inertia tensor", 8, 3);
+}
+END_TEST
+
 START_TEST(test_contact_symmetry_plane)
 {
   double Ph[3], Pf[3], dPh, dPf, sh, sf, gh, gf, p0h, p0f;
@@ -558,6 +571,7 @@ int main(void)
   tcase_add_test(tc, test_body_normal_holds);
   tcase_add_test(tc, test_body_normal_momentum);
   tcase_add_test(tc, test_contact_symmetry_plane);
+  tcase_add_test(tc, test_bad_body_at_check);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

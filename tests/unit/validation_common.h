@@ -88,16 +88,16 @@ static inline ej_set *vsim_set(const ej_sim *sim, const char *name)
   return NULL;
 }
 
-/* The scene at path (sph and ideal_gas plugins) loads, and `ejecta check` (ej_sim_create with
- * check_only) refuses it as bad input: a message containing msg, at line:col. */
-static inline void vrun_check_refuses(const char *path, const char *msg, int line, int col)
+/* The scene at path (the np plugins p) loads, and `ejecta check` (ej_sim_create with check_only)
+ * refuses it as bad input: a message containing msg, at line:col. */
+static inline void vrun_check_refuses_with(const char *path, const ej_plugin_info *const *p, int np, const char *msg,
+                                           int line, int col)
 {
   ej_registry *reg = NULL;
   ej_scene *sc = NULL;
   ej_sim *sim = NULL;
   ck_assert_int_eq(ej_registry_create(&reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_sph_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(reg, ej_plugin_ideal_gas_info()), EJ_OK);
+  for (int k = 0; k < np; ++k) ck_assert_int_eq(ej_registry_add_static(reg, p[k]), EJ_OK);
   ck_assert_int_eq(ej_scene_load(path, reg, &sc), EJ_OK);
   ej_error_clear();
   ej_run_opts o = {.struct_size = sizeof o, .check_only = true};
@@ -112,16 +112,31 @@ static inline void vrun_check_refuses(const char *path, const char *msg, int lin
   ej_registry_destroy(reg);
 }
 
-/* vrun_check_refuses on a scene given as text, written into a fresh temporary folder named after tag
- * (removed afterwards). */
-static inline void vrun_refuses_text(const char *tag, const char *text, const char *msg, int line, int col)
+/* The same with the sph and ideal_gas plugins. */
+static inline void vrun_check_refuses(const char *path, const char *msg, int line, int col)
+{
+  const ej_plugin_info *p[] = {ej_plugin_sph_info(), ej_plugin_ideal_gas_info()};
+  vrun_check_refuses_with(path, p, 2, msg, line, col);
+}
+
+/* vrun_check_refuses_with on a scene given as text, written into a fresh temporary folder named after
+ * tag (removed afterwards). */
+static inline void vrun_refuses_text_with(const char *tag, const ej_plugin_info *const *p, int np, const char *text,
+                                          const char *msg, int line, int col)
 {
   char dir[64], scene[128];
   vrun_dir(dir, sizeof dir, tag);
   snprintf(scene, sizeof scene, "%s/s.yaml", dir);
   vrun_write(scene, text);
-  vrun_check_refuses(scene, msg, line, col);
+  vrun_check_refuses_with(scene, p, np, msg, line, col);
   ej_test_rmtree(dir);
+}
+
+/* The same with the sph and ideal_gas plugins. */
+static inline void vrun_refuses_text(const char *tag, const char *text, const char *msg, int line, int col)
+{
+  const ej_plugin_info *p[] = {ej_plugin_sph_info(), ej_plugin_ideal_gas_info()};
+  vrun_refuses_text_with(tag, p, 2, text, msg, line, col);
 }
 
 /* Two runs of one scene ended in the same state, bitwise: the named fields of set 0 (every
