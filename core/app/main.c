@@ -69,7 +69,7 @@ static const char *usage =
     "commands:\n"
     "  run SCENE [-o FILE] [--threads N] [--restart FILE] [--end TIME]\n"
     "                      run a scene; output HDF5 + XDMF (default: the scene's output.file)\n"
-    "  check SCENE         validate a scene, build and set up its particles, run nothing\n"
+    "  check SCENE         validate a scene, set up its particles, evaluate t = 0; write nothing\n"
     "  plugins             list the plugins found in the search path\n"
     "  describe NAME       parameters, units, bounds and fields of a plugin\n"
     "  describe scene      the core's scene keys (time, output, sets, boundaries, probes)\n"

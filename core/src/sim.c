@@ -1487,13 +1487,18 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
       EJ_TRY(ej_ghosts_refresh(sim, s));
       ej_pass_ctx pc = {pass};
       ej_mark_pass(s, pass);
-      EJ_TRY(ej_for_chunks(sim, s, ej_compute_chunk, &pc));
+      const ej_err rc = ej_for_chunks(sim, s, ej_compute_chunk, &pc);
+      /* the initial evaluation (also `ejecta check`'s) refusing the input: placed at the set */
+      EJ_TRY(in_step ? rc : ej_located(rc, &sim->scene->sets[i].loc));
     }
   }
   /* Interactions see both sets at t_n+1 after all their passes (plugin.h). */
   for (int k = 0; k < sim->n_inter; ++k) {
     ej_inter *in = &sim->inter[k];
-    for (int pass = 0; pass < ej_inter_passes(in); ++pass) EJ_TRY(ej_inter_pass(sim, in, pass));
+    for (int pass = 0; pass < ej_inter_passes(in); ++pass) {
+      const ej_err rc = ej_inter_pass(sim, in, pass);
+      EJ_TRY(in_step ? rc : ej_located(rc, &sim->scene->interactions[k].loc));
+    }
   }
   /* Methods' finish (ABI 1.6): rates that need the interactions' shares. */
   for (int i = 0; i < sim->n_sets; ++i) {
@@ -2371,9 +2376,12 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
   sim->out_path = ej_strdup(path);
   EJ_ENSURE(sim->out_path, EJ_ERR_MEM, "out of memory");
   if (opts && opts->check_only) {
-    /* the methods' setup too (it reads the initial state and what the scene points to: files,
-     * shapes), so that what it refuses is found before a run; nothing is written */
+    /* the methods' setup and the first force evaluation too (they read the initial state and what
+     * the scene points to: files, shapes, neighbours), so that what they refuse is found before a
+     * run; nothing is written */
     EJ_TRY_GOTO(rc, ej_sets_setup(sim), out_destroy);
+    EJ_TRY_GOTO(rc, ej_rebuild(sim), out_destroy);
+    EJ_TRY_GOTO(rc, ej_compute_all(sim, false), out_destroy);
     *out = sim;
     return EJ_OK;
   }

@@ -468,13 +468,22 @@ static void rb_half_full(bool half, double Pb[3], double *dP, double *scale, dou
 START_TEST(test_bad_body_at_check)
 {
   /* what the method's setup refuses (points on a line: singular inertia) is found by `ejecta check`
-   * (check_only runs the methods' setup) and placed at the set (line 8, column 3) */
+   * (check_only runs the methods' setup and the first force evaluation) and placed at the set (line 8,
+   * column 3) */
   const ej_plugin_info *p[] = {ej_plugin_rigid_body_info()};
   vrun_refuses_text_with("rb_line", p, 1,
                          "ejecta: 1\ndimension: 3\ntime: {end: 1e-5}\noutput: {file: o.h5}\n"
                          "materials:\n  steel: {rho0: 7800}\nsets:\n  rod: {method: rigid_body, material: steel, "
                          "shape: {box: {min: [0, 0, 0], max: [0.1, 0.01, 0.01]}}, spacing: 0.01}\n",
                          "has a singular inertia tensor", 8, 3);
+  /* what the first force evaluation refuses (normals: true on a lone point: no surface normal) too,
+   * also placed at the set */
+  vrun_refuses_text_with("rb_lone", p, 1,
+                         "ejecta: 1\ndimension: 3\ntime: {end: 1e-5}\noutput: {file: o.h5}\n"
+                         "materials:\n  steel: {rho0: 7800}\nsets:\n  dot: {method: rigid_body, material: steel, "
+                         "normals: true, fix_rotation: [1, 1, 1], shape: {box: {min: [0, 0, 0], max: [0.01, 0.01, "
+                         "0.01]}}, spacing: 0.01}\n",
+                         "has no surface point with a normal", 8, 3);
 }
 END_TEST
 
