@@ -221,8 +221,8 @@ static bool ej_parse_bool(const char *s, bool *out)
 }
 
 /* EJ_PF_PATH: a relative path is taken from the directory of the file that holds the value (the
- * node's text is replaced once: the doc owns it, and a second apply of the same node, a material
- * used by two sets, sees the resolved path), and the file must open for reading. */
+ * node's text is replaced once: the doc owns it, and a second apply of the same node sees the
+ * resolved path), and the file must open for reading. */
 static ej_err ej_param_path(ej_node *v, const char *subject)
 {
   if (!v->path_resolved && v->text[0] != '/' && v->loc.file) {

@@ -391,6 +391,12 @@ static ej_err ej_eos_invert(const ej_eos *eos, ej_real rho, ej_real p, const ej_
 
 static bool ej_bc_applies(const ej_scene_bc *bc, int set) { return bc->set < 0 || bc->set == set; }
 
+/* A symmetry or periodic boundary that applies to the set: it makes the set's mirror or periodic images. */
+static bool ej_bc_images(const ej_scene_bc *bc, int set)
+{
+  return (bc->kind == EJ_BC_SYMMETRY || bc->kind == EJ_BC_PERIODIC) && ej_bc_applies(bc, set);
+}
+
 /* A fix is for ever; a prescribed velocity while t <= until (the time of the configuration whose
  * accelerations are being constrained): after it the particles are free, released at the last
  * step with t <= until. */
@@ -747,10 +753,9 @@ static ej_err ej_sets_create(ej_sim *sim)
   return EJ_OK;
 }
 
-/* Every method's setup (serial), on the sets' initial state. */
-/* The methods' setup on the initial state. A refusal of the input (a rigid body whose points lie on a
- * line, a tlpd initial_stress row missing, a particle without mass) is tied to the set's place in the
- * scene, as create's are; `ejecta check` runs it too. */
+/* Every method's setup (serial), on the sets' initial state. A refusal of the input (a rigid body
+ * whose points lie on a line, a tlpd initial_stress row missing, a particle without mass) is tied to
+ * the set's place in the scene, as create's are; `ejecta check` runs it too. */
 static ej_err ej_sets_setup(ej_sim *sim)
 {
   for (int i = 0; i < sim->n_sets; ++i)
@@ -831,7 +836,7 @@ static ej_err ej_ghosts_build(ej_sim *sim, ej_set *s, int f_pos, ej_real cutoff)
   int16_t memo[EJ_MAX_XFORMS + 1][2][EJ_MEMO_K]; /* [source transform][side][period - 1] */
   for (int b = 0; b < sc->n_bcs; ++b) {
     const ej_scene_bc *bc = &sc->bcs[b];
-    if ((bc->kind != EJ_BC_SYMMETRY && bc->kind != EJ_BC_PERIODIC) || !ej_bc_applies(bc, s->index)) continue;
+    if (!ej_bc_images(bc, s->index)) continue;
     memset(memo, 0xff, sizeof memo); /* -1 */
     const ej_idx n_images = s->n + s->n_ghost; /* images of images give edges and corners */
     for (ej_idx g = 0; g < n_images; ++g) {
@@ -2358,12 +2363,10 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
    * any create, so that a plugin that cannot take them refuses the scene at check time */
   for (int i = 0; i < sim->n_sets; ++i) {
     ej_set *s = sim->sets[i];
+    /* the sets ej_lists_from_build makes images of: a list of their own, or wants_images */
     s->has_images = false;
     if (s->nbr_config == EJ_NBR_NONE && !s->wants_images) continue;
-    for (int b = 0; b < scene->n_bcs; ++b) {
-      const ej_scene_bc *bc = &scene->bcs[b];
-      if ((bc->kind == EJ_BC_SYMMETRY || bc->kind == EJ_BC_PERIODIC) && ej_bc_applies(bc, s->index)) s->has_images = true;
-    }
+    for (int b = 0; b < scene->n_bcs && !s->has_images; ++b) s->has_images = ej_bc_images(&scene->bcs[b], s->index);
   }
   for (int k = 0; k < sim->n_inter; ++k) {
     ej_inter *in = &sim->inter[k];

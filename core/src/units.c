@@ -260,7 +260,8 @@ ej_err ej_units_parse_as(const char *text, const char *declared_unit, const ej_l
     }
     if (st == EJ_UNIT_SYNTAX) {
       snprintf(msg, sizeof msg,
-               "malformed unit '%s' in '%.*s%s' (write units like 'GPa', 'g/cm^3' or 'm/s^2')", ubuf, EJ_SHOWN(tlen, p));
+               "malformed unit '%s' in '%.*s%s' (write units like 'GPa', 'g/cm^3' or 'm/s^2')", ubuf,
+               EJ_SHOWN(tlen, p));
       return ej_units_error(loc, subject, msg);
     }
   }
@@ -272,10 +273,11 @@ ej_err ej_units_parse_as(const char *text, const char *declared_unit, const ej_l
     bool plain = strcmp(wn, "dimensionless") == 0;
     int n = snprintf(msg, sizeof msg, "%s%s", subject ? subject : "", subject ? " " : "");
     if (plain)
-      snprintf(msg + n, sizeof msg - (size_t)n, "expects a plain number without unit, got '%.*s%s' (%s)", EJ_SHOWN(tlen, p), gn);
+      snprintf(msg + n, sizeof msg - (size_t)n, "expects a plain number without unit, got '%.*s%s' (%s)",
+               EJ_SHOWN(tlen, p), gn);
     else
-      snprintf(msg + n, sizeof msg - (size_t)n, "expects %s (%s), got '%.*s%s' (%s)", wn, declared_unit, EJ_SHOWN(tlen, p),
-               gn);
+      snprintf(msg + n, sizeof msg - (size_t)n, "expects %s (%s), got '%.*s%s' (%s)", wn, declared_unit,
+               EJ_SHOWN(tlen, p), gn);
     return ej_error_input(loc, "%s", msg);
   }
 

@@ -1859,6 +1859,10 @@ static void sph_solid_art_stress(int dim, ej_real eps, const ej_real s[6], ej_re
  * zx), the correction of the set's own pairs, whose B_i holds the walls' share B_wall. */
 static inline void sph_add_wall_gradient(ej_real *restrict Lw, const ej_real *restrict Lc, ej_real *restrict Lv)
 {
+  /* no wall near (every particle of a set without walls): nothing to add, nothing to zero, no store */
+  if (!(Lw[0] != 0.0 || Lw[1] != 0.0 || Lw[2] != 0.0 || Lw[3] != 0.0 || Lw[4] != 0.0 || Lw[5] != 0.0 ||
+        Lw[6] != 0.0 || Lw[7] != 0.0 || Lw[8] != 0.0))
+    return;
   if (Lc) {
     const ej_real C[9] = {Lc[0], Lc[3], Lc[5], Lc[3], Lc[1], Lc[4], Lc[5], Lc[4], Lc[2]};
     for (int a = 0; a < 3; ++a)
