@@ -1,12 +1,13 @@
 #!/usr/bin/python3
 """The shape tensor at the C4/air interface (validation/c4_air README, "Shape tensor across the
-interface"): the scene of check.py at dx = 0.1 mm to 4 us, five variants,
+interface"): the scene of check.py at dx = 0.1 mm to 4 us, six variants,
 
   * sph kernel gradient with renormalize_interfaces (check.py's judged run, the reference row);
   * shape tensor on both sets, continuum `gradient: auto` (M_i over both sets, G_ij on the
     interface pairs: the default since 2026-11-30);
   * the same with continuum `gradient: kernel` (the coupling before: M_i one-sided, kernel pairs);
-  * shape tensor in the air only / in the charge only (gradient: auto).
+  * shape tensor in the air only / in the charge only (gradient: auto);
+  * shape tensor on both sets with shape_continuity: own (shape_ratio.py).
 
 Prints the air peak pressure and velocity over check.py's window (1.25-3 us) against the Riemann
 state (riemann.py) and the mean pressure of the three air particles at the contact at 3 us, and
@@ -43,11 +44,16 @@ def variants():
     air_only = shape.replace("material: c4, " + SHAPE, "material: c4, ")
     charge_only = shape.replace("material: air, " + SHAPE, "material: air, ")
     assert air_only.count(SHAPE) == 1 and charge_only.count(SHAPE) == 1
+    # the continuity with g_i instead of G_ij (shape_ratio.py: the symmetric continuity is what runs the
+    # shock ahead at a density contact)
+    cont_own = shape.replace(SHAPE, SHAPE + "shape_continuity: own, ")
+    assert cont_own.count("shape_continuity: own") == 2
     return [("sph kernel gradient (renormalize_interfaces)", "kernel", base),
             ("shape tensor, continuum gradient: auto", "shape_auto", shape),
             ("shape tensor, continuum gradient: kernel (before)", "shape_kcpl", kernel_cpl),
             ("shape tensor in the air only", "shape_air", air_only),
-            ("shape tensor in the charge only", "shape_charge", charge_only)]
+            ("shape tensor in the charge only", "shape_charge", charge_only),
+            ("shape tensor, shape_continuity: own", "shape_cown", cont_own)]
 
 
 def main():
@@ -81,7 +87,8 @@ def main():
     import matplotlib.pyplot as plt
     fig, axs = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
     for ax, t in zip(axs, (2e-6, 3e-6)):
-        for tag, style in (("kernel", "k-"), ("shape_auto", "C0-"), ("shape_kcpl", "C3--"), ("shape_air", "C2:")):
+        for tag, style in (("kernel", "k-"), ("shape_auto", "C0-"), ("shape_kcpl", "C3--"), ("shape_air", "C2:"),
+                           ("shape_cown", "C1-")):
             label, rows = prof[tag]
             r = min(rows, key=lambda r: abs(r["t"] - t))
             x = r["air"]["x"][:, 0]
