@@ -62,15 +62,10 @@ static int c4air_read(hid_t f, const char *path, double *buf, int cap)
   return (int)dims[0];
 }
 
-/* method: the method and its options as they go into the set's flow mapping ("sph, ..."). */
-static void c4air_run(const char *method, bool check_peak_p, bool check_peak_u)
+/* Loads and runs the scene file into out with every plugin these tests use, one thread; returns the
+ * initial total energy. */
+static double c4air_sim(const char *scene, const char *out)
 {
-  char dir[64], scene[128], out[128], text[2048];
-  vrun_dir(dir, sizeof dir, "c4air");
-  snprintf(scene, sizeof scene, "%s/c4air.yaml", dir);
-  snprintf(out, sizeof out, "%s/c4air.h5", dir);
-  snprintf(text, sizeof text, C4AIR_SCENE, method, method);
-  vrun_write(scene, text);
   vrun r;
   memset(&r, 0, sizeof r);
   ck_assert_int_eq(ej_registry_create(&r.reg), EJ_OK);
@@ -89,6 +84,19 @@ static void c4air_run(const char *method, bool check_peak_p, bool check_peak_u)
   vrun_run(&r);
   const double total0 = r.sim->energy.total0;
   vrun_free(&r);
+  return total0;
+}
+
+/* method: the method and its options as they go into the set's flow mapping ("sph, ..."). */
+static void c4air_run(const char *method, bool check_peak_p, bool check_peak_u)
+{
+  char dir[64], scene[128], out[128], text[2048];
+  vrun_dir(dir, sizeof dir, "c4air");
+  snprintf(scene, sizeof scene, "%s/c4air.yaml", dir);
+  snprintf(out, sizeof out, "%s/c4air.h5", dir);
+  snprintf(text, sizeof text, C4AIR_SCENE, method, method);
+  vrun_write(scene, text);
+  const double total0 = c4air_sim(scene, out);
 
   enum { CAP = 1 << 20 };
   double *buf = malloc(CAP * sizeof *buf);
@@ -187,21 +195,7 @@ START_TEST(test_shape_density_contact)
   snprintf(scene, sizeof scene, "%s/gas.yaml", dir);
   snprintf(out, sizeof out, "%s/gas.h5", dir);
   vrun_write(scene, C4AIR_GAS_SCENE);
-  vrun r;
-  memset(&r, 0, sizeof r);
-  ck_assert_int_eq(ej_registry_create(&r.reg), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r.reg, ej_plugin_sph_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r.reg, ej_plugin_ideal_gas_info()), EJ_OK);
-  ck_assert_int_eq(ej_registry_add_static(r.reg, ej_plugin_continuum_info()), EJ_OK);
-  ej_err rc = ej_scene_load(scene, r.reg, &r.scene);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = 1};
-  rc = ej_sim_create(r.scene, r.reg, &opts, &r.sim);
-  if (rc != EJ_OK) ej_error_report("test");
-  ck_assert_int_eq(rc, EJ_OK);
-  vrun_run(&r);
-  vrun_free(&r);
+  c4air_sim(scene, out);
 
   enum { CAP = 1 << 16 };
   double *xb = malloc(3 * CAP * sizeof *xb), *pb = malloc(CAP * sizeof *pb);
