@@ -50,6 +50,9 @@ void ej_buf_free(ej_buf *b);
 
 /* strdup through ej_malloc. */
 char *ej_strdup(const char *s);
+/* name as a path beside file: name itself when absolute, else file's directory + name (name alone
+ * when file has no directory or is NULL); through ej_malloc, NULL when out of memory. */
+char *ej_path_beside(const char *file, const char *name);
 /* Levenshtein distance, for "did you mean". */
 int ej_edit_distance(const char *a, const char *b);
 /* Nearest of n candidates within a small distance, or NULL. */

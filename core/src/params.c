@@ -225,17 +225,11 @@ static bool ej_parse_bool(const char *s, bool *out)
  * resolved path), and the file must open for reading. */
 static ej_err ej_param_path(ej_node *v, const char *subject)
 {
-  if (!v->path_resolved && v->text[0] != '/' && v->loc.file) {
-    const char *slash = strrchr(v->loc.file, '/');
-    const size_t nd = slash ? (size_t)(slash - v->loc.file) + 1 : 0, nt = strlen(v->text);
-    if (nd > 0) {
-      char *t = ej_malloc(nd + nt + 1);
-      EJ_ENSURE(t, EJ_ERR_MEM, "out of memory");
-      memcpy(t, v->loc.file, nd);
-      memcpy(t + nd, v->text, nt + 1);
-      ej_free(v->text);
-      v->text = t;
-    }
+  if (!v->path_resolved) {
+    char *t = ej_path_beside(v->loc.file, v->text);
+    EJ_ENSURE(t, EJ_ERR_MEM, "out of memory");
+    ej_free(v->text);
+    v->text = t;
   }
   v->path_resolved = true;
   FILE *f = fopen(v->text, "r");

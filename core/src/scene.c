@@ -256,7 +256,6 @@ typedef struct ej_loader {
   const char **mat_names;
   int *shape_state; /* per set: 0 not parsed, 1 being parsed, 2 done */
   ej_shape_env env;
-  char *dir; /* directory of the scene file, with a trailing '/', or "" */
 } ej_loader;
 
 static const char *ej_kind_word(const ej_node *n)
@@ -519,11 +518,8 @@ static ej_err ej_resolve_file(ej_loader *L, ej_scene_set *s, const ej_node *f)
 {
   const char *name = NULL;
   EJ_TRY(ej_expect_word(f, "file", &name));
-  size_t nd = name[0] == '/' ? 0 : strlen(L->dir), nf = strlen(name);
-  s->file = ej_malloc(nd + nf + 1);
+  s->file = ej_path_beside(L->sc->doc->path, name);
   EJ_ENSURE(s->file, EJ_ERR_MEM, "out of memory");
-  memcpy(s->file, L->dir, nd);
-  memcpy(s->file + nd, name, nf + 1);
   s->file_loc = f->loc;
   return EJ_OK;
 }
@@ -1146,16 +1142,6 @@ ej_err ej_scene_from_doc(ej_doc *doc, ej_registry *reg, ej_scene **out)
   sc->doc = doc;
   ej_loader L = {.sc = sc, .reg = reg};
   ej_err rc = EJ_OK;
-  const char *path = doc->path ? doc->path : "";
-  const char *slash = strrchr(path, '/');
-  size_t nd = slash ? (size_t)(slash - path) + 1 : 0;
-  L.dir = ej_malloc(nd + 1);
-  if (!L.dir) {
-    rc = ej_error_push(EJ_ERR_MEM, __FILE__, __LINE__, __func__, "out of memory");
-    goto out_free_scene;
-  }
-  memcpy(L.dir, path, nd);
-  L.dir[nd] = 0;
   EJ_TRY_GOTO(rc, ej_scene_parse(&L), out_free_scene);
   *out = sc;
   goto out_free_loader;
@@ -1163,7 +1149,6 @@ ej_err ej_scene_from_doc(ej_doc *doc, ej_registry *reg, ej_scene **out)
 out_free_scene:
   ej_scene_free(sc);
 out_free_loader:
-  ej_free(L.dir);
   ej_free(L.set_names);
   ej_free(L.mat_names);
   ej_free(L.shape_state);

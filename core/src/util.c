@@ -25,6 +25,17 @@ char *ej_strdup(const char *s)
   return d;
 }
 
+char *ej_path_beside(const char *file, const char *name)
+{
+  const char *slash = file && name[0] != '/' ? strrchr(file, '/') : NULL;
+  const size_t nd = slash ? (size_t)(slash - file) + 1 : 0, nn = strlen(name);
+  char *p = ej_malloc(nd + nn + 1);
+  if (!p) return NULL;
+  memcpy(p, file, nd);
+  memcpy(p + nd, name, nn + 1);
+  return p;
+}
+
 ej_err ej_buf_printf(ej_buf *b, const char *fmt, ...)
 {
   va_list ap;
