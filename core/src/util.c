@@ -31,7 +31,7 @@ char *ej_path_beside(const char *file, const char *name)
   const size_t nd = slash ? (size_t)(slash - file) + 1 : 0, nn = strlen(name);
   char *p = ej_malloc(nd + nn + 1);
   if (!p) return NULL;
-  memcpy(p, file, nd);
+  if (nd) memcpy(p, file, nd); /* file may be NULL (nd = 0): no memcpy from a null pointer */
   memcpy(p + nd, name, nn + 1);
   return p;
 }

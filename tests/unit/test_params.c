@@ -324,6 +324,27 @@ START_TEST(test_schema)
 }
 END_TEST
 
+/* ej_path_beside, which resolves EJ_PF_PATH values and a set's file: beside the file that names them */
+START_TEST(test_path_beside)
+{
+  const char *cases[][3] = {{"dir/sub/scene.yaml", "m.yaml", "dir/sub/m.yaml"},
+                            {"dir/scene.yaml", "../d/m.yaml", "dir/../d/m.yaml"},
+                            {"/abs/scene.yaml", "m.yaml", "/abs/m.yaml"},
+                            {"scene.yaml", "m.yaml", "m.yaml"},
+                            {"dir/scene.yaml", "/etc/m.yaml", "/etc/m.yaml"},
+                            {NULL, "m.yaml", "m.yaml"},
+                            {NULL, "/etc/m.yaml", "/etc/m.yaml"},
+                            {"dir/", "m.yaml", "dir/m.yaml"}};
+  for (size_t k = 0; k < sizeof cases / sizeof cases[0]; ++k) {
+    char *p = ej_path_beside(cases[k][0], cases[k][1]);
+    ck_assert_ptr_nonnull(p);
+    ck_assert_msg(strcmp(p, cases[k][2]) == 0, "case %zu: '%s' beside '%s' gave '%s', expected '%s'", k,
+                  cases[k][1], cases[k][0] ? cases[k][0] : "(null)", p, cases[k][2]);
+    ej_free(p);
+  }
+}
+END_TEST
+
 int main(void)
 {
   Suite *s = suite_create("params");
@@ -338,6 +359,7 @@ int main(void)
   tcase_add_test(tc, test_check_config);
   tcase_add_test(tc, test_describe);
   tcase_add_test(tc, test_schema);
+  tcase_add_test(tc, test_path_beside);
   suite_add_tcase(s, tc);
   SRunner *sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
