@@ -2,8 +2,8 @@
  *
  * A build splits the candidates into radius classes, bins each class into its own grid of
  * cells (one stable counting sort over all the cells; the candidates' coordinates and radii
- * are copied in that order, so that a cell row is contiguous and tested four at a time with
- * AVX2), then scans each row once into the buffer of the thread that takes its block of
+ * are copied in that order, so that a cell row is contiguous and tested eight at a time with
+ * AVX-512 or four at a time with AVX2), then scans each row once into the buffer of the thread that takes its block of
  * rows; a prefix sum of the row counts places the blocks in the CSR arrays. Each row is
  * sorted ascending and its content does not depend on the thread, so the list is bitwise
  * identical for any OpenMP thread count (DESIGN.md "Determinism"). */
@@ -18,6 +18,13 @@
 #endif
 #ifdef __AVX2__
 #include <immintrin.h>
+#endif
+/* The candidate test eight at a time with AVX-512 (F and VL: masked loads, mask compares, register
+ * compress), else four at a time with AVX2, else scalar; the same pairs pass in every build. */
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+#define EJ_SCAN_AVX512 1
+#else
+#define EJ_SCAN_AVX512 0
 #endif
 
 #if defined(__GNUC__)
@@ -255,7 +262,7 @@ static EJ_ALWAYS_INLINE ej_real ej_cell_gap(ej_real t, int64_t c)
   return a > 0 ? a : (b > 0 ? b : 0);
 }
 
-#ifdef __AVX2__
+#if defined(__AVX2__) && !EJ_SCAN_AVX512
 /* _mm_shuffle_epi8 masks packing the 32-bit lanes selected by a 4-bit mask to the front. */
 #define EJ_Z4 128, 128, 128, 128
 static const uint8_t ej_pack_lut[16][16] __attribute__((aligned(16))) = {
@@ -286,9 +293,10 @@ static const uint8_t ej_pack_lut[16][16] __attribute__((aligned(16))) = {
  * ball's chord over that row. Works in cell units; the margin on R covers the rounding of
  * the cell coordinates, so a pair that passes the test is never in a skipped cell.
  * The candidates' coordinates and radii are read from P, a copy in cell_items order (SoA,
- * component d at P + d ps), so a cell row is contiguous: with AVX2 four candidates are
- * tested at once (the same operations in the same order as the scalar test, no FMA: the
- * same pairs pass) and the passing indices packed by a byte shuffle. Returns len when the
+ * component d at P + d ps), so a cell row is contiguous: with AVX-512 eight candidates are
+ * tested at once and the passing indices packed by a register compress, with AVX2 four and a
+ * byte shuffle (the same operations in the same order as the scalar test, no FMA: the same
+ * pairs pass). Returns len when the
  * row may not fit (then out[0..len) is garbage), else the row's length. */
 static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, const ej_real *xi, ej_real ri,
                                            ej_idx i, const ej_real *P, int64_t ps, ej_real rb_max,
@@ -311,7 +319,11 @@ static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, cons
   const ej_real x0 = xi[0], x1 = dim > 1 ? xi[1] : 0, x2 = dim > 2 ? xi[2] : 0;
   const ej_idx self = same ? i : -1;
   const ej_real *px = P, *py = P + ps, *pz = P + 2 * ps, *pr = P + 3 * ps;
-#ifdef __AVX2__
+#if EJ_SCAN_AVX512
+  const __m512d wx0 = _mm512_set1_pd(x0), wx1 = _mm512_set1_pd(x1), wx2 = _mm512_set1_pd(x2);
+  const __m512d wr2 = _mm512_set1_pd(r2_row), wri = _mm512_set1_pd(ri), wskin = _mm512_set1_pd(skin);
+  const __m256i wself = _mm256_set1_epi32(self);
+#elif defined(__AVX2__)
   const __m256d vx0 = _mm256_set1_pd(x0), vx1 = _mm256_set1_pd(x1), vx2 = _mm256_set1_pd(x2);
   const __m256d vr2 = _mm256_set1_pd(r2_row), vri = _mm256_set1_pd(ri), vskin = _mm256_set1_pd(skin);
   const __m128i vself = _mm_set1_epi32(self);
@@ -334,7 +346,36 @@ static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, cons
       const int64_t base = (cz * g->nc[1] + cy) * g->nc[0];
       const ej_idx e = cell_start[base + cxh + 1];
       ej_idx k = cell_start[base + cxl];
-#ifdef __AVX2__
+#if EJ_SCAN_AVX512
+      /* Eight at a time while eight more entries fit (n <= len after each store), the cell row's last
+       * partial group under a load mask (masked-off lanes are not read and fail the test), the passing
+       * indices packed in lane order by a register compress: the same test, the same entries in the
+       * same order as the loops below. */
+      for (; k < e && len - n >= 8; k += 8) {
+        const ej_idx rem = e - k;
+        const __mmask8 lm = rem >= 8 ? (__mmask8)0xFF : (__mmask8)((1u << rem) - 1u);
+        const __m512d dx = _mm512_sub_pd(_mm512_maskz_loadu_pd(lm, px + k), wx0);
+        __m512d d2 = _mm512_mul_pd(dx, dx);
+        if (dim > 1) {
+          const __m512d dy = _mm512_sub_pd(_mm512_maskz_loadu_pd(lm, py + k), wx1);
+          d2 = _mm512_add_pd(d2, _mm512_mul_pd(dy, dy));
+        }
+        if (dim > 2) {
+          const __m512d dz = _mm512_sub_pd(_mm512_maskz_loadu_pd(lm, pz + k), wx2);
+          d2 = _mm512_add_pd(d2, _mm512_mul_pd(dz, dz));
+        }
+        __m512d lim = wr2;
+        if (!row_wide) {
+          const __m512d r = _mm512_add_pd(_mm512_max_pd(wri, _mm512_maskz_loadu_pd(lm, pr + k)), wskin);
+          lim = _mm512_mul_pd(r, r);
+        }
+        const __m256i vj = _mm256_maskz_loadu_epi32(lm, cell_items + k);
+        const __mmask8 m = _mm512_mask_cmp_pd_mask(lm, d2, lim, _CMP_LT_OQ) & ~_mm256_cmpeq_epi32_mask(vj, wself);
+        _mm256_storeu_si256((__m256i *)(void *)(out + n), _mm256_maskz_compress_epi32(m, vj));
+        n += (ej_idx)__builtin_popcount((unsigned)m);
+      }
+      if (n == len) return n;
+#elif defined(__AVX2__)
       /* Four at a time while four more entries fit: n <= len holds after each store. */
       for (; k + 4 <= e && len - n >= 4; k += 4) {
         const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(px + k), vx0);
