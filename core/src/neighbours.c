@@ -3,8 +3,8 @@
  * A build splits the candidates into radius classes, bins each class into its own grid of
  * cells (one stable counting sort over all the cells; the candidates' coordinates and radii
  * are copied in that order, so that a cell row is contiguous and tested eight at a time with
- * AVX-512 or four at a time with AVX2), then scans each row once into the buffer of the thread that takes its block of
- * rows; a prefix sum of the row counts places the blocks in the CSR arrays. Each row is
+ * AVX-512 or four at a time with AVX2), then scans each row once into the buffer of the thread
+ * that takes its block of rows; a prefix sum of the row counts places the blocks in the CSR arrays. Each row is
  * sorted ascending and its content does not depend on the thread, so the list is bitwise
  * identical for any OpenMP thread count (DESIGN.md "Determinism"). */
 #include <math.h>
