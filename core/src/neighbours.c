@@ -4,9 +4,9 @@
  * cells (one stable counting sort over all the cells; the candidates' coordinates and radii
  * are copied in that order, so that a cell row is contiguous and tested eight at a time with
  * AVX-512 or four at a time with AVX2), then scans each row once into the buffer of the thread
- * that takes its block of rows; a prefix sum of the row counts places the blocks in the CSR arrays. Each row is
- * sorted ascending and its content does not depend on the thread, so the list is bitwise
- * identical for any OpenMP thread count (DESIGN.md "Determinism"). */
+ * that takes its block of rows; a prefix sum of the row counts places the blocks in the CSR
+ * arrays. Each row is sorted ascending and its content does not depend on the thread, so the
+ * list is bitwise identical for any OpenMP thread count (DESIGN.md "Determinism"). */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
@@ -296,8 +296,8 @@ static const uint8_t ej_pack_lut[16][16] __attribute__((aligned(16))) = {
  * component d at P + d ps), so a cell row is contiguous: with AVX-512 eight candidates are
  * tested at once and the passing indices packed by a register compress, with AVX2 four and a
  * byte shuffle (the same operations in the same order as the scalar test, no FMA: the same
- * pairs pass). Returns len when the
- * row may not fit (then out[0..len) is garbage), else the row's length. */
+ * pairs pass). Returns len when the row may not fit (then out[0..len) is garbage), else the
+ * row's length. */
 static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, const ej_real *xi, ej_real ri,
                                            ej_idx i, const ej_real *P, int64_t ps, ej_real rb_max,
                                            ej_real skin, bool same, const ej_idx *cell_start,
@@ -374,7 +374,6 @@ static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, cons
         _mm256_storeu_si256((__m256i *)(void *)(out + n), _mm256_maskz_compress_epi32(m, vj));
         n += (ej_idx)__builtin_popcount((unsigned)m);
       }
-      if (n == len) return n;
 #elif defined(__AVX2__)
       /* Four at a time while four more entries fit: n <= len holds after each store. */
       for (; k + 4 <= e && len - n >= 4; k += 4) {
@@ -401,7 +400,9 @@ static EJ_ALWAYS_INLINE ej_idx ej_row_scan(const ej_grid *g, const int dim, cons
                          _mm_shuffle_epi8(vj, _mm_load_si128((const __m128i *)(const void *)ej_pack_lut[m])));
         n += (ej_idx)__builtin_popcount((unsigned)m);
       }
-      if (n == len) return n;
+#endif
+#if EJ_SCAN_AVX512 || defined(__AVX2__)
+      if (n == len) return n; /* a vector loop filled the row exactly */
 #endif
       for (; k < e; k++) {
         const ej_idx j = cell_items[k];
