@@ -42,6 +42,31 @@ static const char *gas_scene =
     "  - periodic: {axis: y, min: 0, max: 1}\n"
     "  - periodic: {axis: z, min: 0, max: 1}\n";
 
+/* TL-PD with mirror ghosts (two symmetry planes), a strength model with history fields (added to
+ * every pass mask by the core) and a critical stretch that breaks bonds within the run, so that
+ * post_step rewrites rows (status, coefficient, H, damage) that the next passes read at the images. */
+static const char *tlpd_scene =
+    "ejecta: 1\n"
+    "dimension: 3\n"
+    "time: {end: 1.0e6, cfl: 0.5, max_steps: 60}\n"
+    "output: {file: pd.h5, every: 1.0e6, fields: [v, damage]}\n"
+    "materials:\n"
+    "  sand: {model: drucker_prager, rho0: 1700, E: 98.5 MPa, nu: 0.25, friction_angle: 0.5 rad,\n"
+    "         dilation_angle: 0.2 rad, cohesion: 10 kPa}\n"
+    "sets:\n"
+    "  soil:\n"
+    "    method: tlpd\n"
+    "    material: sand\n"
+    "    failure: {critical_stretch: 0.002}\n"
+    "    shape: {box: {min: [0, 0, 0], max: [0.08, 0.08, 0.08]}}\n"
+    "    spacing: 0.01\n"
+    "    jitter: 0.05\n"
+    "    seed: 3\n"
+    "    initial: [{region: {box: {min: [-1, -1, 0.04], max: [1, 1, 1]}}, velocity: [5, -3, 40]}]\n"
+    "boundaries:\n"
+    "  - symmetry: {point: [0, 0, 0], normal: [1, 0, 0]}\n"
+    "  - symmetry: {point: [0, 0, 0], normal: [0, 1, 0]}\n";
+
 /* Runs dir/name with EJECTA_GHOST_CHECK=1; returns the number of rebuilds. */
 static int64_t gr_run(const char *dir, const char *name, int threads, int64_t steps, bool partial)
 {
@@ -84,6 +109,44 @@ START_TEST(test_gas_partial_refresh)
   ck_assert_int_eq(nreb1, nreb2);
   const char *names[] = {"gas.yaml", "gas.yaml.h5", "gas.yaml.xdmf"};
   vrun_cleanup(dir, names, 3);
+}
+END_TEST
+
+/* tlpd names its passes' writes (2026-12-03): the refresh is partial, and every partial refresh
+ * equals a full one while bonds break (the in-run check); 1 and 2 threads. */
+START_TEST(test_tlpd_partial_refresh)
+{
+  char dir[64], path[160];
+  vrun_dir(dir, sizeof dir, "ghr");
+  snprintf(path, sizeof path, "%s/pd.yaml", dir);
+  vrun_write(path, tlpd_scene);
+  for (int threads = 1; threads <= 2; ++threads) {
+    char out[160];
+    snprintf(out, sizeof out, "%s/pd.yaml.h5", dir);
+    ck_assert_int_eq(setenv("EJECTA_GHOST_CHECK", "1", 1), 0);
+    ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = threads};
+    vrun r;
+    vrun_open(&r, path, &opts, 60);
+    ej_set *s = r.sim->sets[0];
+    ck_assert_int_gt(s->n_ghost, 0);
+    for (int q = 0; q < 3; ++q) ck_assert(s->pass_mask[q] != EJ_ALL_FIELDS); /* post_step, pass 0, pass 1 */
+    const int fF = ej_set_find_field(s, "F"), fx0 = ej_set_find_field(s, "x0");
+    ck_assert_int_ge(fF, 0);
+    ck_assert_int_ge(fx0, 0);
+    ck_assert(s->pass_mask[1] & (UINT64_C(1) << fF));      /* pass 0 writes F */
+    ck_assert(!(s->pass_mask[2] & (UINT64_C(1) << fF)));   /* pass 1 does not */
+    ck_assert(!(s->pass_mask[1] & (UINT64_C(1) << fx0)));  /* nobody writes x0 */
+    vrun_run(&r); /* fails on the first stale ghost */
+    ck_assert_int_eq(r.sim->step, 60);
+    const ej_real *damage = ej_set_field(s, "damage");
+    ej_real dmax = 0;
+    for (ej_idx i = 0; i < s->n; ++i) dmax = damage[i] > dmax ? damage[i] : dmax;
+    ck_assert_msg(dmax > 0.05, "no bond broke (max damage %g): the case does not test post_step's writes", dmax);
+    vrun_free(&r);
+    ck_assert_int_eq(unsetenv("EJECTA_GHOST_CHECK"), 0);
+  }
+  const char *names[] = {"pd.yaml", "pd.yaml.h5", "pd.yaml.xdmf", "pd.h5", "pd.xdmf"};
+  vrun_cleanup(dir, names, 5);
 }
 END_TEST
 
@@ -237,6 +300,7 @@ int main(void)
   TCase *tc = tcase_create("refresh");
   tcase_set_timeout(tc, 120);
   tcase_add_test(tc, test_gas_partial_refresh);
+  tcase_add_test(tc, test_tlpd_partial_refresh);
   tcase_add_test(tc, test_tube_symmetry_ghosts);
   tcase_add_test(tc, test_stale_detected);
   tcase_add_test(tc, test_undeclared_write_caught);

@@ -2709,6 +2709,38 @@ static ej_err tlpd_load_state(void *state, const ej_real *buf, int n)
   return EJ_OK;
 }
 
+/* The fields each pass writes (ABI 1.3 pass_writes), so that the core copies to the ghosts before a pass
+ * only what changed since the last refresh instead of every field (the rotated 3 x 3 tensors F, PK,
+ * G_pk, K_inv of every mirror image: 10 % of the default example's step before 2026-12-03). Fields
+ * the material or EOS write (history, p) are added by the core. Pass 0 includes the rows set up on
+ * first use (tlpd_init_row: status, coefficient, H, damage) and the point failures; post_step the
+ * bond breaking (tlpd_refresh_row) and the energy correction. EJECTA_GHOST_CHECK=1 compares every
+ * partial refresh with a full one (tests/unit/test_ghosts_refresh.c runs a TL-PD scene with it). */
+static int tlpd_pass_writes(const void *state, int pass, const char **names, int max)
+{
+  const tlpd_state *s = state;
+  static const char *const kin[] = {"F",       "PK",        "G_pk",      "K_inv",   "stress",    "rho",
+                                    "e",       "e_dot",     "w_hg_dot",  "c",       "w_plastic", "failed",
+                                    "pd_status", "pd_fprev", "pd_coef",  "pd_hsum", "damage"};
+  static const char *const frc[] = {"a", "e_dot", "w_hg_dot"};
+  static const char *const post[] = {"x_prev",    "e",         "e_dot",   "pd_fprev", "pd_t_break",
+                                     "pd_status", "pd_coef",   "pd_hsum", "damage"};
+  const bool diff = s->cfg.force_form == TLPD_FORM_DIFFERENCE;
+  const bool imp = s->cfg.contact != TLPD_CONTACT_OFF && s->cfg.contact_law == TLPD_CLAW_IMPACT;
+  const char *const *l = pass == EJ_PASS_POST_STEP ? post : pass == 0 ? kin : pass == 1 ? frc : NULL;
+  const int nl = pass == EJ_PASS_POST_STEP ? (int)(sizeof post / sizeof *post)
+                 : pass == 0               ? (int)(sizeof kin / sizeof *kin)
+                 : pass == 1               ? (int)(sizeof frc / sizeof *frc)
+                                           : -1;
+  if (nl < 0 || max < nl + 2) return -1;
+  int n = 0;
+  for (int k = 0; k < nl; ++k) names[n++] = l[k];
+  if (pass == 0 && diff) names[n++] = "P";
+  if (pass != 0 && imp) names[n++] = "w_contact_dot";
+  if (pass == EJ_PASS_POST_STEP && imp) names[n++] = "w_contact";
+  return n;
+}
+
 static const ej_method_ops tlpd_ops = {
     .struct_size = sizeof(ej_method_ops),
     .name = "tlpd",
@@ -2737,6 +2769,7 @@ static const ej_method_ops tlpd_ops = {
     .destroy = tlpd_destroy,
     .pass_count = NULL,
     .report = tlpd_report,
+    .pass_writes = tlpd_pass_writes,
     .save_state = tlpd_save_state,
     .load_state = tlpd_load_state,
 };
