@@ -597,6 +597,9 @@ typedef struct ej_inter {
   ej_nbrlist *list;  /* a -> b (NULL for one set) */
   ej_nbrlist *list_ba; /* b -> a when ops->both_ways */
   int pre_slot;        /* the method pass before which the pre-passes run, -1: never (ej_inter_pre_slot) */
+  /* fields each pass writes on a ([0]) and b ([1]) (ABI 1.11 pass_writes; ej_inter_write_masks):
+   * [k][0] post_step, [k][1 + n_pre_passes + pass] pass; EJ_ALL_FIELDS when the plugin does not say */
+  uint64_t wmask[2][EJ_MAX_PASS_MASKS + 1];
 } ej_inter;
 
 /* Per-step series reported by plugins, in a fixed order decided on the first step. */

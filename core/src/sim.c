@@ -1424,19 +1424,68 @@ static int ej_set_passes(const ej_set *s)
  * gravity and the constraints in the kick chunks (ej_kick_chunk), which saves two parallel
  * regions per step; each particle sees the same operations in the same order. */
 /* One pass of an interaction: a's ranges, then b's when the list runs both ways. */
+/* The write mask of an interaction's pass (post: its post_step) on side k (0: a, 1: b). */
+static uint64_t ej_inter_wmask(const ej_inter *in, bool post, int pass, int k)
+{
+  const int npre = EJ_HAS_OP(in->ops, ej_interaction_ops, n_pre_passes) ? in->ops->n_pre_passes : 0;
+  const int q = post ? 0 : 1 + npre + pass;
+  return q >= 0 && q <= EJ_MAX_PASS_MASKS ? in->wmask[k][q] : EJ_ALL_FIELDS;
+}
+
 static ej_err ej_inter_pass(ej_sim *sim, ej_inter *in, int pass)
 {
   EJ_TRY(ej_ghosts_refresh(sim, in->a));
   if (in->b) EJ_TRY(ej_ghosts_refresh(sim, in->b));
   ej_inter_ctx ic = {in, pass, false};
-  /* an interaction does not say what it writes: every field of both sets counts as written */
-  in->a->ghost_dirty = EJ_ALL_FIELDS;
-  if (in->b) in->b->ghost_dirty = EJ_ALL_FIELDS;
+  /* what the pass writes (every field of both sets unless the interaction says: ABI 1.11) */
+  in->a->ghost_dirty |= ej_inter_wmask(in, false, pass, 0);
+  if (in->b) in->b->ghost_dirty |= ej_inter_wmask(in, false, pass, 1);
   EJ_TRY(ej_for_chunks(sim, in->a, ej_inter_chunk, &ic));
   if (in->list_ba) {
     ej_inter_ctx rc = {in, pass, true};
     EJ_TRY(ej_for_chunks(sim, in->b, ej_inter_chunk, &rc));
   }
+  return EJ_OK;
+}
+
+/* The fields each pass of an interaction writes on either set (ABI 1.11 pass_writes), plus the fields an
+ * EOS or strength model may write inside any pass (the sets' foreign_mask). An interaction without
+ * pass_writes (or one that returns -1) writes every field. Its post_step writes every field, or none
+ * with post_step_sums_only (ABI 1.4). Fixed once the interaction exists (ej_sim_create). */
+static ej_err ej_inter_write_masks(ej_inter *in)
+{
+  const ej_interaction_ops *o = in->ops;
+  const bool has = EJ_HAS_OP(o, ej_interaction_ops, pass_writes) && o->pass_writes;
+  const int npre = EJ_HAS_OP(o, ej_interaction_ops, n_pre_passes) ? o->n_pre_passes : 0;
+  const int npass = EJ_HAS_OP(o, ej_interaction_ops, n_passes) && o->n_passes > 1 ? o->n_passes : 1;
+  const bool sums_only = EJ_HAS_OP(o, ej_interaction_ops, post_step_sums_only) && o->post_step_sums_only;
+  ej_set *sets[2] = {in->a, in->b};
+  for (int k = 0; k < 2; ++k)
+    for (int q = 0; q <= EJ_MAX_PASS_MASKS; ++q) {
+      in->wmask[k][q] = EJ_ALL_FIELDS;
+      ej_set *s = sets[k];
+      if (!s) continue;
+      const int pass = q - 1 - npre; /* for q > 0 */
+      if (q > 0 && pass >= npass) continue;
+      if (q == 0) { /* post_step: pass_writes does not cover it (its pass numbers include -1) */
+        if (sums_only) in->wmask[k][q] = 0;
+        continue;
+      }
+      if (!has) continue;
+      const char *names[EJ_MAX_FIELDS];
+      const int nw = o->pass_writes(in->state, pass, k, names, EJ_MAX_FIELDS);
+      if (nw < 0) continue;
+      EJ_ENSURE(nw <= EJ_MAX_FIELDS, EJ_ERR_PLUGIN, "interaction '%s': pass_writes returned %d names (max %d)", o->name,
+                nw, EJ_MAX_FIELDS);
+      uint64_t mask = 0;
+      for (int j = 0; j < nw; ++j) {
+        EJ_ENSURE(names[j], EJ_ERR_PLUGIN, "interaction '%s': pass_writes returned a NULL name (pass %d)", o->name,
+                  pass);
+        const int f = ej_set_find_field(s, names[j]);
+        if (f >= 0) mask |= UINT64_C(1) << f;
+      }
+      in->wmask[k][q] = mask | s->foreign_mask;
+    }
   return EJ_OK;
 }
 
@@ -2373,6 +2422,7 @@ ej_err ej_sim_create(ej_scene *scene, ej_registry *reg, const ej_run_opts *opts,
     const ej_scene_interaction *si = &scene->interactions[k];
     EJ_TRY_GOTO(rc, ej_located(in->ops->create(in->config, in->a, in->b, &in->state), &si->loc), out_destroy);
     in->pre_slot = ej_inter_pre_slot(in);
+    EJ_TRY_GOTO(rc, ej_located(ej_inter_write_masks(in), &si->loc), out_destroy);
   }
   EJ_TRY_GOTO(rc, ej_series_setup(sim), out_destroy);
   const char *path = opts && opts->output ? opts->output : scene->output_file;
@@ -2504,8 +2554,8 @@ ej_err ej_sim_run(ej_sim *sim)
     for (int k = 0; k < sim->n_inter; ++k) {
       ej_inter *in = &sim->inter[k];
       if (EJ_HAS_OP(in->ops, ej_interaction_ops, post_step)) {
-        in->a->ghost_dirty = EJ_ALL_FIELDS;
-        if (in->b) in->b->ghost_dirty = EJ_ALL_FIELDS;
+        in->a->ghost_dirty |= ej_inter_wmask(in, true, 0, 0);
+        if (in->b) in->b->ghost_dirty |= ej_inter_wmask(in, true, 0, 1);
         EJ_TRY_GOTO(rc, in->ops->post_step(in->state, in->a, in->b), out);
       }
     }

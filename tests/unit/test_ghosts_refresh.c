@@ -67,6 +67,50 @@ static const char *tlpd_scene =
     "  - symmetry: {point: [0, 0, 0], normal: [1, 0, 0]}\n"
     "  - symmetry: {point: [0, 0, 0], normal: [0, 1, 0]}\n";
 
+/* A gas charge against a TL-PD soil across two symmetry planes, coupled by pd_sph with decohesion
+ * (pd_sph names its writes, ABI 1.11: the soil's images are no longer refreshed in full after every
+ * coupling pass), and a second gas set coupled to the charge by continuum with the shape tensor, so
+ * that continuum's pre-pass (M_cpl) runs too. */
+static const char *coupled_scene =
+    "ejecta: 1\n"
+    "dimension: 3\n"
+    "time: {end: 1.0e6, cfl: 0.3, max_steps: 40}\n"
+    "output: {file: cpl.h5, every: 1.0e6, fields: [v, damage]}\n"
+    "materials:\n"
+    "  gas: {rho0: 100, eos: {model: ideal_gas, gamma: 1.4}}\n"
+    "  sand: {model: drucker_prager, rho0: 1700, E: 98.5 MPa, nu: 0.25, friction_angle: 0.5 rad,\n"
+    "         dilation_angle: 0.2 rad, cohesion: 10 kPa}\n"
+    "sets:\n"
+    "  charge:\n"
+    "    method: sph\n"
+    "    material: gas\n"
+    "    gradient: shape_tensor\n"
+    "    shape: {box: {min: [0, 0, 0], max: [0.03, 0.03, 0.03]}}\n"
+    "    spacing: 0.01\n"
+    "    rho: 100\n"
+    "    p: 50 MPa\n"
+    "  air:\n"
+    "    method: sph\n"
+    "    material: gas\n"
+    "    gradient: shape_tensor\n"
+    "    shape: {box: {min: [0.03, 0, 0], max: [0.06, 0.03, 0.03]}}\n"
+    "    spacing: 0.01\n"
+    "    rho: 100\n"
+    "    p: 1 MPa\n"
+    "  soil:\n"
+    "    method: tlpd\n"
+    "    material: sand\n"
+    "    failure: {critical_stretch: 0.002}\n"
+    "    shape: {box: {min: [0, 0, 0.03], max: [0.06, 0.06, 0.07]}}\n"
+    "    spacing: 0.01\n"
+    "interactions:\n"
+    "  - {model: pd_sph, sets: [charge, soil], pair_stress: both, decohesion_pressure: 20 MPa}\n"
+    "  - {model: pd_sph, sets: [air, soil], pair_stress: both}\n"
+    "  - {model: continuum, sets: [charge, air]}\n"
+    "boundaries:\n"
+    "  - symmetry: {point: [0, 0, 0], normal: [1, 0, 0]}\n"
+    "  - symmetry: {point: [0, 0, 0], normal: [0, 1, 0]}\n";
+
 /* Runs dir/name with EJECTA_GHOST_CHECK=1; returns the number of rebuilds. */
 static int64_t gr_run(const char *dir, const char *name, int threads, int64_t steps, bool partial)
 {
@@ -146,6 +190,45 @@ START_TEST(test_tlpd_partial_refresh)
     ck_assert_int_eq(unsetenv("EJECTA_GHOST_CHECK"), 0);
   }
   const char *names[] = {"pd.yaml", "pd.yaml.h5", "pd.yaml.xdmf", "pd.h5", "pd.xdmf"};
+  vrun_cleanup(dir, names, 5);
+}
+END_TEST
+
+/* Interactions that name their writes (ABI 1.11): pd_sph's and continuum's passes mark only the
+ * fields they write (no EJ_ALL_FIELDS), a set's images stay a full refresh's at every pass (in-run
+ * check), 1 and 2 threads. */
+START_TEST(test_coupling_partial_refresh)
+{
+  char dir[64], path[160];
+  vrun_dir(dir, sizeof dir, "ghr");
+  snprintf(path, sizeof path, "%s/cpl.yaml", dir);
+  vrun_write(path, coupled_scene);
+  for (int threads = 1; threads <= 2; ++threads) {
+    char out[160];
+    snprintf(out, sizeof out, "%s/cpl.yaml.h5", dir);
+    ck_assert_int_eq(setenv("EJECTA_GHOST_CHECK", "1", 1), 0);
+    ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = threads};
+    vrun r;
+    vrun_open(&r, path, &opts, 40);
+    ck_assert_int_eq(r.sim->n_inter, 3);
+    for (int k = 0; k < 3; ++k) {
+      const ej_inter *in = &r.sim->inter[k];
+      const int npre = in->ops->n_pre_passes, np = in->ops->n_passes > 1 ? in->ops->n_passes : 1;
+      for (int side = 0; side < 2; ++side)
+        for (int q = 1; q <= npre + np; ++q)
+          ck_assert_msg(in->wmask[side][q] != EJ_ALL_FIELDS, "interaction %d side %d mask %d", k, side, q);
+      /* pass 0 writes a on either side, not x */
+      const int fa = ej_set_find_field(in->a, "a"), fx = ej_set_find_field(in->a, "x");
+      ck_assert(in->wmask[0][1 + npre] & (UINT64_C(1) << fa));
+      ck_assert(!(in->wmask[0][1 + npre] & (UINT64_C(1) << fx)));
+    }
+    for (int i = 0; i < r.sim->n_sets; ++i) ck_assert_int_gt(r.sim->sets[i]->n_ghost, 0);
+    vrun_run(&r); /* fails on the first stale ghost */
+    ck_assert_int_eq(r.sim->step, 40);
+    vrun_free(&r);
+    ck_assert_int_eq(unsetenv("EJECTA_GHOST_CHECK"), 0);
+  }
+  const char *names[] = {"cpl.yaml", "cpl.yaml.h5", "cpl.yaml.xdmf", "cpl.h5", "cpl.xdmf"};
   vrun_cleanup(dir, names, 5);
 }
 END_TEST
@@ -301,6 +384,7 @@ int main(void)
   tcase_set_timeout(tc, 120);
   tcase_add_test(tc, test_gas_partial_refresh);
   tcase_add_test(tc, test_tlpd_partial_refresh);
+  tcase_add_test(tc, test_coupling_partial_refresh);
   tcase_add_test(tc, test_tube_symmetry_ghosts);
   tcase_add_test(tc, test_stale_detected);
   tcase_add_test(tc, test_undeclared_write_caught);

@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 10 /* members appended to an info or ops struct; services added */
+#define EJ_ABI_MINOR 11 /* members appended to an info or ops struct; services added */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -525,6 +525,17 @@ typedef struct ej_interaction_ops {
    * false (or an older table): only sets with a list of their own have images (sph_wall's wall set
    * must have none). */
   bool needs_images;
+  /* --- ABI 1.11. The fields of a set that compute pass `pass` (-n_pre_passes .. n_passes-1) writes
+   * while that set's rows are processed (post_step: see post_step_sums_only, which says it writes
+   * none; otherwise it writes every field): side 0 is the scene's first set (a), side 1 the second
+   * (b). Up to max names into names; returns
+   * their number, or -1 for "every field" (also the meaning of a NULL op or an older table). A name
+   * the set does not have is skipped (a coupling names rho_dot, which only an SPH side has). The core
+   * then copies to that set's ghosts, before the next pass, only these fields (and those the method,
+   * the integrator, the EOS and the strength model wrote), as for pass_writes of a method; without it
+   * an interaction's pass counts as writing every field of both sets, so a coupled set's images are
+   * refreshed in full once a step. EJECTA_GHOST_CHECK=1 compares every partial refresh with a full one. */
+  int (*pass_writes)(const void *state, int pass, int side, const char **names, int max);
 } ej_interaction_ops;
 
 /* ------------------------------------------------------------------ registration */

@@ -110,6 +110,12 @@ static void continuum_destroy(void *state)
   ej_free(s);
 }
 
+static int continuum_pass_writes(const void *state, int pass, int side, const char **names, int max)
+{
+  (void)state, (void)side;
+  return cpl_pass_writes(pass, names, max, NULL);
+}
+
 static const ej_interaction_ops continuum_ops = {
     .struct_size = sizeof(ej_interaction_ops),
     .name = "continuum",
@@ -131,6 +137,7 @@ static const ej_interaction_ops continuum_ops = {
     .n_sets = 2,
     .n_pre_passes = 1,
     .pre_pass_before = "M_inv",
+    .pass_writes = continuum_pass_writes,
 };
 
 static ej_err continuum_register(ej_registry *reg) { return ej_register_interaction(reg, &continuum_ops); }

@@ -81,6 +81,23 @@ static inline ej_err cpl_check_ren(const ej_set *set, const char *who, bool ok, 
   return EJ_OK;
 }
 
+/* The fields a coupling's pass writes on the set whose rows it sums (ABI 1.11 pass_writes; either side,
+ * names a set lacks are skipped by the core): the pre-pass the shape-tensor share M_cpl, the pair passes
+ * a, the continuity and energy rates and the renormalisation sums, plus `extra` (pd_sph: failed). */
+static inline int cpl_pass_writes(int pass, const char **names, int max, const char *extra)
+{
+  static const char *const pairs[] = {"a", "rho_dot", "e_dot", "ren_div", "ren_norm"};
+  if (max < 6) return -1;
+  if (pass < 0) {
+    names[0] = "M_cpl";
+    return 1;
+  }
+  int n = 0;
+  for (size_t k = 0; k < sizeof pairs / sizeof *pairs; ++k) names[n++] = pairs[k];
+  if (extra) names[n++] = extra;
+  return n;
+}
+
 /* Binds the fields of a set; EJ_ERR_INPUT names what is missing. */
 static inline ej_err cpl_bind(cpl_side *s, ej_set *set, const char *who, ej_real h_factor)
 {

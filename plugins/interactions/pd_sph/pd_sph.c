@@ -627,6 +627,13 @@ static void pd_sph_destroy(void *state)
   ej_free(s);
 }
 
+/* The solid side's decohesion sets failed (pass 0); everything else as continuum's passes. */
+static int pd_sph_pass_writes(const void *state, int pass, int side, const char **names, int max)
+{
+  (void)state, (void)side;
+  return cpl_pass_writes(pass, names, max, pass == 0 ? "failed" : NULL);
+}
+
 static const ej_interaction_ops pd_sph_ops = {
     .struct_size = sizeof(ej_interaction_ops),
     .name = "pd_sph",
@@ -652,6 +659,7 @@ static const ej_interaction_ops pd_sph_ops = {
     .n_sets = 2,
     .n_pre_passes = 1, /* gradient auto: the solid's share of a shape-tensor fluid's M_i */
     .pre_pass_before = "M_inv",
+    .pass_writes = pd_sph_pass_writes,
 };
 
 static ej_err pd_sph_register(ej_registry *reg) { return ej_register_interaction(reg, &pd_sph_ops); }
