@@ -111,6 +111,33 @@ static const char *coupled_scene =
     "  - symmetry: {point: [0, 0, 0], normal: [1, 0, 0]}\n"
     "  - symmetry: {point: [0, 0, 0], normal: [0, 1, 0]}\n";
 
+/* SPH solid (strength: true) with the kernel correction, XSPH and the Balsara switch, against two
+ * symmetry planes: every solid pass names its writes (2026-12-03). */
+static const char *solid_scene =
+    "ejecta: 1\n"
+    "dimension: 3\n"
+    "time: {end: 1.0e6, cfl: 0.3, max_steps: 30}\n"
+    "output: {file: sol.h5, every: 1.0e6, fields: [v, stress]}\n"
+    "materials:\n"
+    "  al: {model: von_mises, rho0: 2700, E: 70 GPa, nu: 0.3, yield_stress: 50 MPa}\n"
+    "sets:\n"
+    "  block:\n"
+    "    method: sph\n"
+    "    strength: true\n"
+    "    correction: true\n"
+    "    xsph: 0.5\n"
+    "    visc_switch: balsara\n"
+    "    art_stress: true\n"
+    "    material: al\n"
+    "    shape: {box: {min: [0, 0, 0], max: [0.008, 0.008, 0.008]}}\n"
+    "    spacing: 0.001\n"
+    "    jitter: 0.05\n"
+    "    seed: 5\n"
+    "    initial: [{region: {box: {min: [-1, -1, 0.004], max: [1, 1, 1]}}, velocity: [20, 0, -150]}]\n"
+    "boundaries:\n"
+    "  - symmetry: {point: [0, 0, 0], normal: [1, 0, 0]}\n"
+    "  - symmetry: {point: [0, 0, 0], normal: [0, 1, 0]}\n";
+
 /* Runs dir/name with EJECTA_GHOST_CHECK=1; returns the number of rebuilds. */
 static int64_t gr_run(const char *dir, const char *name, int threads, int64_t steps, bool partial)
 {
@@ -229,6 +256,21 @@ START_TEST(test_coupling_partial_refresh)
     ck_assert_int_eq(unsetenv("EJECTA_GHOST_CHECK"), 0);
   }
   const char *names[] = {"cpl.yaml", "cpl.yaml.h5", "cpl.yaml.xdmf", "cpl.h5", "cpl.xdmf"};
+  vrun_cleanup(dir, names, 5);
+}
+END_TEST
+
+/* The SPH solid passes name their writes: partial masks, and the in-run check stays clean, 1 and 2
+ * threads (gr_run asserts the partial masks of post_step and passes 0 and 1). */
+START_TEST(test_solid_partial_refresh)
+{
+  char dir[64], path[160];
+  vrun_dir(dir, sizeof dir, "ghr");
+  snprintf(path, sizeof path, "%s/sol.yaml", dir);
+  vrun_write(path, solid_scene);
+  gr_run(dir, "sol.yaml", 1, 30, true);
+  gr_run(dir, "sol.yaml", 2, 30, true);
+  const char *names[] = {"sol.yaml", "sol.yaml.h5", "sol.yaml.xdmf", "sol.h5", "sol.xdmf"};
   vrun_cleanup(dir, names, 5);
 }
 END_TEST
@@ -385,6 +427,7 @@ int main(void)
   tcase_add_test(tc, test_gas_partial_refresh);
   tcase_add_test(tc, test_tlpd_partial_refresh);
   tcase_add_test(tc, test_coupling_partial_refresh);
+  tcase_add_test(tc, test_solid_partial_refresh);
   tcase_add_test(tc, test_tube_symmetry_ghosts);
   tcase_add_test(tc, test_stale_detected);
   tcase_add_test(tc, test_undeclared_write_caught);

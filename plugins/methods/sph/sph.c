@@ -2541,6 +2541,36 @@ static ej_err sph_check_config(const void *config, ej_diag *diag)
   return EJ_OK;
 }
 
+/* The solid passes' writes (strength: true; 2026-12-03), in sph_compute's order: particle pass, the
+ * correction pass (correction only), the stress pass (velocity gradient, rotation, material update,
+ * sigma/rho^2, artificial stress; it consumes sph_wall's L_wall and B_wall), the force pass (a, rates,
+ * mu_max, XSPH velocity); post_step floors rho and, with XSPH, moves x. Before, every solid pass counted
+ * as writing every field, so the images were copied in full (10-12 % of a Taylor bar step). */
+static int sph_solid_pass_writes(const sph_config *cfg, int pass, const char **names, int max)
+{
+  if (cfg->density == SPH_DENS_SUMMATION || cfg->geometry != SPH_GEOM_PLANAR || cfg->conductivity > 0.0 || max < 16)
+    return -1;
+  static const char *const particle[] = {"rho", "h", "p", "c", "p_rho2", "w_cont"};
+  static const char *const corr[] = {"L_corr", "B_wall", "corr_fallbacks"};
+  static const char *const stress[] = {"rho_dot", "d_rate",        "stress",    "c_mat",      "wp_inc", "failed",
+                                       "p",       "c",             "sigma_rho2", "art_stress", "L_wall",
+                                       "w_plastic_dot"};
+  static const char *const force[] = {"a", "e_dot", "w_visc_dot", "mu_max", "v_xsph"};
+  int n = 0;
+  if (pass == EJ_PASS_POST_STEP) {
+    names[n++] = "rho";
+    if (cfg->xsph > 0.0) names[n++] = "x";
+    return n;
+  }
+  const int lp = (!cfg->correction && pass >= 1) ? pass + 1 : pass;
+  const char *const *l = lp == 0 ? particle : lp == 1 ? corr : lp == 2 ? stress : lp == 3 ? force : NULL;
+  const int nl = lp == 0 ? 6 : lp == 1 ? 3 : lp == 2 ? 12 : lp == 3 ? 5 : -1;
+  if (!l || nl < 0) return -1;
+  for (int k = 0; k < nl; ++k) names[n++] = l[k];
+  if (lp == 2 && cfg->visc_switch == SPH_VSW_BALSARA) names[n++] = "visc_switch";
+  return n;
+}
+
 /* The fields each pass writes (ABI 1.3 pass_writes: the core then copies to the ghosts only what
  * was written since the last refresh). Listed for the gas form with continuity density, the
  * kernel gradient without correction or the shape tensor, planar geometry and no conductivity
@@ -2550,7 +2580,8 @@ static int sph_pass_writes(const void *state, int pass, const char **names, int 
 {
   const sph_state *s = state;
   const sph_config *cfg = &s->cfg;
-  if (cfg->strength || cfg->density == SPH_DENS_SUMMATION || cfg->correction || cfg->geometry != SPH_GEOM_PLANAR ||
+  if (cfg->strength) return sph_solid_pass_writes(cfg, pass, names, max);
+  if (cfg->density == SPH_DENS_SUMMATION || cfg->correction || cfg->geometry != SPH_GEOM_PLANAR ||
       cfg->conductivity > 0.0 || max < 6)
     return -1;
   const bool shape = cfg->gradient == SPH_GRAD_SHAPE;
