@@ -568,6 +568,20 @@ static ej_err sw_load_state(void *state, const ej_real *buf, int n)
   return EJ_OK;
 }
 
+/* The fields the passes write on the SPH set (ABI 1.11) */
+static int sw_pass_writes(const void *state, int pass, int side, const char **names, int max)
+{
+  (void)state, (void)side; /* the wall set has no images; names it lacks are skipped */
+  if (max < 3) return -1;
+  if (pass < 0) { /* the wall's share of the solid's velocity gradient (and of B with correction) */
+    names[0] = "L_wall", names[1] = "B_wall";
+    return 2;
+  }
+  if (pass == 0) return 0; /* the wall side's extrapolation: the plugin's own arrays */
+  names[0] = "a", names[1] = "rho_dot", names[2] = "e_dot";
+  return 3;
+}
+
 static const ej_interaction_ops sw_ops = {
     .struct_size = sizeof(ej_interaction_ops),
     .name = "sph_wall",
@@ -594,6 +608,7 @@ static const ej_interaction_ops sw_ops = {
     .n_pre_passes = 1,
     .save_state = sw_save_state,
     .load_state = sw_load_state,
+    .pass_writes = sw_pass_writes,
 };
 
 static ej_err sw_register(ej_registry *reg) { return ej_register_interaction(reg, &sw_ops); }
