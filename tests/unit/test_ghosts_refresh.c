@@ -139,16 +139,50 @@ static const char *solid_scene =
     "  - symmetry: {point: [0, 0, 0], normal: [0, 1, 0]}\n";
 
 /* Runs dir/name with EJECTA_GHOST_CHECK=1; returns the number of rebuilds. */
-static int64_t gr_run(const char *dir, const char *name, int threads, int64_t steps, bool partial)
+/* A fresh test directory dir holding the scene text as dir/name. */
+static void gr_scene(char *dir, size_t n, const char *name, const char *text)
+{
+  char path[160];
+  vrun_dir(dir, n, "ghr");
+  snprintf(path, sizeof path, "%s/%s", dir, name);
+  vrun_write(path, text);
+}
+
+/* Removes what a run of dir/<stem>.yaml with output <stem>.h5 leaves, and dir. */
+static void gr_cleanup(const char *dir, const char *stem)
+{
+  char f[5][64];
+  const char *ext[5] = {".yaml", ".yaml.h5", ".yaml.xdmf", ".h5", ".xdmf"};
+  const char *names[5];
+  for (int k = 0; k < 5; ++k) snprintf(f[k], sizeof f[k], "%s%s", stem, ext[k]), names[k] = f[k];
+  vrun_cleanup(dir, names, 5);
+}
+
+/* Opens dir/name (output dir/name.h5) with EJECTA_GHOST_CHECK=1 for steps steps. */
+static void gr_open(vrun *r, const char *dir, const char *name, int threads, int64_t steps)
 {
   char scene[128], out[128];
   snprintf(scene, sizeof scene, "%s/%s", dir, name);
   snprintf(out, sizeof out, "%s/%s.h5", dir, name);
   ck_assert_int_eq(setenv("EJECTA_GHOST_CHECK", "1", 1), 0);
   ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = threads};
+  vrun_open(r, scene, &opts, steps);
+  ck_assert(r->sim->ghost_check);
+}
+
+/* Runs what gr_open opened to its steps (fails on the first stale ghost); frees it unless keep. */
+static void gr_finish(vrun *r, int64_t steps, bool keep)
+{
+  vrun_run(r); /* fails (ck_abort in vrun_run) on the first stale ghost */
+  ck_assert_int_eq(r->sim->step, steps);
+  if (!keep) vrun_free(r);
+  ck_assert_int_eq(unsetenv("EJECTA_GHOST_CHECK"), 0);
+}
+
+static int64_t gr_run(const char *dir, const char *name, int threads, int64_t steps, bool partial)
+{
   vrun r;
-  vrun_open(&r, scene, &opts, steps);
-  ck_assert(r.sim->ghost_check);
+  gr_open(&r, dir, name, threads, steps);
   ej_set *s = r.sim->sets[0];
   ck_assert_int_gt(s->n_ghost, 0);
   if (partial) {
@@ -158,13 +192,9 @@ static int64_t gr_run(const char *dir, const char *name, int threads, int64_t st
     ck_assert(s->pass_mask[0] != EJ_ALL_FIELDS);
     ck_assert(s->step_mask != EJ_ALL_FIELDS);
   }
-  vrun_run(&r); /* fails (ck_abort in vrun_run) on the first stale ghost */
-  ck_assert_int_eq(r.sim->step, steps);
-  /* and the ghosts after the last pass of the last step are still a full refresh's of the fields
-   * no one wrote since (the check inside the run covered every pass) */
+  gr_finish(&r, steps, true); /* the check inside the run covered every pass */
   const int64_t nreb = r.sim->n_rebuilds;
   vrun_free(&r);
-  ck_assert_int_eq(unsetenv("EJECTA_GHOST_CHECK"), 0);
   return nreb;
 }
 
@@ -187,17 +217,11 @@ END_TEST
  * equals a full one while bonds break (the in-run check); 1 and 2 threads. */
 START_TEST(test_tlpd_partial_refresh)
 {
-  char dir[64], path[160];
-  vrun_dir(dir, sizeof dir, "ghr");
-  snprintf(path, sizeof path, "%s/pd.yaml", dir);
-  vrun_write(path, tlpd_scene);
+  char dir[64];
+  gr_scene(dir, sizeof dir, "pd.yaml", tlpd_scene);
   for (int threads = 1; threads <= 2; ++threads) {
-    char out[160];
-    snprintf(out, sizeof out, "%s/pd.yaml.h5", dir);
-    ck_assert_int_eq(setenv("EJECTA_GHOST_CHECK", "1", 1), 0);
-    ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = threads};
     vrun r;
-    vrun_open(&r, path, &opts, 60);
+    gr_open(&r, dir, "pd.yaml", threads, 60);
     ej_set *s = r.sim->sets[0];
     ck_assert_int_gt(s->n_ghost, 0);
     for (int q = 0; q < 3; ++q) ck_assert(s->pass_mask[q] != EJ_ALL_FIELDS); /* post_step, pass 0, pass 1 */
@@ -207,17 +231,14 @@ START_TEST(test_tlpd_partial_refresh)
     ck_assert(s->pass_mask[1] & (UINT64_C(1) << fF));      /* pass 0 writes F */
     ck_assert(!(s->pass_mask[2] & (UINT64_C(1) << fF)));   /* pass 1 does not */
     ck_assert(!(s->pass_mask[1] & (UINT64_C(1) << fx0)));  /* nobody writes x0 */
-    vrun_run(&r); /* fails on the first stale ghost */
-    ck_assert_int_eq(r.sim->step, 60);
+    gr_finish(&r, 60, true);
     const ej_real *damage = ej_set_field(s, "damage");
     ej_real dmax = 0;
     for (ej_idx i = 0; i < s->n; ++i) dmax = damage[i] > dmax ? damage[i] : dmax;
     ck_assert_msg(dmax > 0.05, "no bond broke (max damage %g): the case does not test post_step's writes", dmax);
     vrun_free(&r);
-    ck_assert_int_eq(unsetenv("EJECTA_GHOST_CHECK"), 0);
   }
-  const char *names[] = {"pd.yaml", "pd.yaml.h5", "pd.yaml.xdmf", "pd.h5", "pd.xdmf"};
-  vrun_cleanup(dir, names, 5);
+  gr_cleanup(dir, "pd");
 }
 END_TEST
 
@@ -226,17 +247,11 @@ END_TEST
  * check), 1 and 2 threads. */
 START_TEST(test_coupling_partial_refresh)
 {
-  char dir[64], path[160];
-  vrun_dir(dir, sizeof dir, "ghr");
-  snprintf(path, sizeof path, "%s/cpl.yaml", dir);
-  vrun_write(path, coupled_scene);
+  char dir[64];
+  gr_scene(dir, sizeof dir, "cpl.yaml", coupled_scene);
   for (int threads = 1; threads <= 2; ++threads) {
-    char out[160];
-    snprintf(out, sizeof out, "%s/cpl.yaml.h5", dir);
-    ck_assert_int_eq(setenv("EJECTA_GHOST_CHECK", "1", 1), 0);
-    ej_run_opts opts = {.struct_size = sizeof opts, .output = out, .threads = threads};
     vrun r;
-    vrun_open(&r, path, &opts, 40);
+    gr_open(&r, dir, "cpl.yaml", threads, 40);
     ck_assert_int_eq(r.sim->n_inter, 3);
     for (int k = 0; k < 3; ++k) {
       const ej_inter *in = &r.sim->inter[k];
@@ -250,13 +265,9 @@ START_TEST(test_coupling_partial_refresh)
       ck_assert(!(in->wmask[0][1 + npre] & (UINT64_C(1) << fx)));
     }
     for (int i = 0; i < r.sim->n_sets; ++i) ck_assert_int_gt(r.sim->sets[i]->n_ghost, 0);
-    vrun_run(&r); /* fails on the first stale ghost */
-    ck_assert_int_eq(r.sim->step, 40);
-    vrun_free(&r);
-    ck_assert_int_eq(unsetenv("EJECTA_GHOST_CHECK"), 0);
+    gr_finish(&r, 40, false);
   }
-  const char *names[] = {"cpl.yaml", "cpl.yaml.h5", "cpl.yaml.xdmf", "cpl.h5", "cpl.xdmf"};
-  vrun_cleanup(dir, names, 5);
+  gr_cleanup(dir, "cpl");
 }
 END_TEST
 
@@ -264,14 +275,11 @@ END_TEST
  * threads (gr_run asserts the partial masks of post_step and passes 0 and 1). */
 START_TEST(test_solid_partial_refresh)
 {
-  char dir[64], path[160];
-  vrun_dir(dir, sizeof dir, "ghr");
-  snprintf(path, sizeof path, "%s/sol.yaml", dir);
-  vrun_write(path, solid_scene);
+  char dir[64];
+  gr_scene(dir, sizeof dir, "sol.yaml", solid_scene);
   gr_run(dir, "sol.yaml", 1, 30, true);
   gr_run(dir, "sol.yaml", 2, 30, true);
-  const char *names[] = {"sol.yaml", "sol.yaml.h5", "sol.yaml.xdmf", "sol.h5", "sol.xdmf"};
-  vrun_cleanup(dir, names, 5);
+  gr_cleanup(dir, "sol");
 }
 END_TEST
 
