@@ -1423,7 +1423,6 @@ static int ej_set_passes(const ej_set *s)
 /* in_step: the step loop already zeroed a and the rates (in the kick-drift chunks) and applies
  * gravity and the constraints in the kick chunks (ej_kick_chunk), which saves two parallel
  * regions per step; each particle sees the same operations in the same order. */
-/* One pass of an interaction: a's ranges, then b's when the list runs both ways. */
 /* The write mask of an interaction's pass (post: its post_step) on side k (0: a, 1: b). */
 static uint64_t ej_inter_wmask(const ej_inter *in, bool post, int pass, int k)
 {
@@ -1432,6 +1431,7 @@ static uint64_t ej_inter_wmask(const ej_inter *in, bool post, int pass, int k)
   return q >= 0 && q <= EJ_MAX_PASS_MASKS ? in->wmask[k][q] : EJ_ALL_FIELDS;
 }
 
+/* One pass of an interaction: a's ranges, then b's when the list runs both ways. */
 static ej_err ej_inter_pass(ej_sim *sim, ej_inter *in, int pass)
 {
   EJ_TRY(ej_ghosts_refresh(sim, in->a));

@@ -526,15 +526,15 @@ typedef struct ej_interaction_ops {
    * must have none). */
   bool needs_images;
   /* --- ABI 1.11. The fields of a set that compute pass `pass` (-n_pre_passes .. n_passes-1) writes
-   * while that set's rows are processed (post_step: see post_step_sums_only, which says it writes
-   * none; otherwise it writes every field): side 0 is the scene's first set (a), side 1 the second
-   * (b). Up to max names into names; returns
-   * their number, or -1 for "every field" (also the meaning of a NULL op or an older table). A name
-   * the set does not have is skipped (a coupling names rho_dot, which only an SPH side has). The core
-   * then copies to that set's ghosts, before the next pass, only these fields (and those the method,
-   * the integrator, the EOS and the strength model wrote), as for pass_writes of a method; without it
-   * an interaction's pass counts as writing every field of both sets, so a coupled set's images are
-   * refreshed in full once a step. EJECTA_GHOST_CHECK=1 compares every partial refresh with a full one. */
+   * while that set's rows are processed: side 0 is the scene's first set (a), side 1 the second (b).
+   * Up to max names into names; returns their number, or -1 for "every field" (also the meaning of a
+   * NULL op or an older table). A name the set does not have is skipped (a coupling names rho_dot,
+   * which only an SPH side has). The core then copies to that set's ghosts, before the next pass,
+   * only these fields (and those the method, the integrator, the EOS and the strength model wrote),
+   * as for pass_writes of a method; without it an interaction's pass counts as writing every field
+   * of both sets, so a coupled set's images are refreshed in full once a step. post_step is not
+   * covered: it writes every field, or none with post_step_sums_only. EJECTA_GHOST_CHECK=1 compares
+   * every partial refresh with a full one. */
   int (*pass_writes)(const void *state, int pass, int side, const char **names, int max);
 } ej_interaction_ops;
 
