@@ -2550,12 +2550,11 @@ static int sph_solid_pass_writes(const sph_config *cfg, int pass, const char **n
 {
   if (cfg->density == SPH_DENS_SUMMATION || cfg->geometry != SPH_GEOM_PLANAR || cfg->conductivity > 0.0 || max < 16)
     return -1;
-  static const char *const particle[] = {"rho", "h", "p", "c", "p_rho2", "w_cont"};
-  static const char *const corr[] = {"L_corr", "B_wall", "corr_fallbacks"};
-  static const char *const stress[] = {"rho_dot", "d_rate",        "stress",    "c_mat",      "wp_inc", "failed",
-                                       "p",       "c",             "sigma_rho2", "art_stress", "L_wall",
-                                       "w_plastic_dot"};
-  static const char *const force[] = {"a", "e_dot", "w_visc_dot", "mu_max", "v_xsph"};
+  static const char *const particle[] = {"rho", "h", "p", "c", "p_rho2", "w_cont", NULL};
+  static const char *const corr[] = {"L_corr", "B_wall", "corr_fallbacks", NULL};
+  static const char *const stress[] = {"rho_dot", "d_rate", "stress",     "c_mat",      "wp_inc", "failed",       "p",
+                                       "c",       "sigma_rho2", "art_stress", "L_wall", "w_plastic_dot", NULL};
+  static const char *const force[] = {"a", "e_dot", "w_visc_dot", "mu_max", "v_xsph", NULL};
   int n = 0;
   if (pass == EJ_PASS_POST_STEP) {
     names[n++] = "rho";
@@ -2564,9 +2563,8 @@ static int sph_solid_pass_writes(const sph_config *cfg, int pass, const char **n
   }
   const int lp = (!cfg->correction && pass >= 1) ? pass + 1 : pass;
   const char *const *l = lp == 0 ? particle : lp == 1 ? corr : lp == 2 ? stress : lp == 3 ? force : NULL;
-  const int nl = lp == 0 ? 6 : lp == 1 ? 3 : lp == 2 ? 12 : lp == 3 ? 5 : -1;
-  if (!l || nl < 0) return -1;
-  for (int k = 0; k < nl; ++k) names[n++] = l[k];
+  if (!l) return -1;
+  while (l[n]) names[n] = l[n], ++n;
   if (lp == 2 && cfg->visc_switch == SPH_VSW_BALSARA) names[n++] = "visc_switch";
   return n;
 }

@@ -2719,22 +2719,18 @@ static ej_err tlpd_load_state(void *state, const ej_real *buf, int n)
 static int tlpd_pass_writes(const void *state, int pass, const char **names, int max)
 {
   const tlpd_state *s = state;
-  static const char *const kin[] = {"F",       "PK",        "G_pk",      "K_inv",   "stress",    "rho",
-                                    "e",       "e_dot",     "w_hg_dot",  "c",       "w_plastic", "failed",
-                                    "pd_status", "pd_fprev", "pd_coef",  "pd_hsum", "damage"};
-  static const char *const frc[] = {"a", "e_dot", "w_hg_dot"};
-  static const char *const post[] = {"x_prev",    "e",         "e_dot",   "pd_fprev", "pd_t_break",
-                                     "pd_status", "pd_coef",   "pd_hsum", "damage"};
+  static const char *const kin[] = {"F",        "PK",      "G_pk",    "K_inv",  "stress",    "rho",
+                                    "e",        "e_dot",   "w_hg_dot", "c",     "w_plastic", "failed",
+                                    "pd_status", "pd_fprev", "pd_coef", "pd_hsum", "damage", NULL};
+  static const char *const frc[] = {"a", "e_dot", "w_hg_dot", NULL};
+  static const char *const post[] = {"x_prev",    "e",       "e_dot",   "pd_fprev", "pd_t_break",
+                                     "pd_status", "pd_coef", "pd_hsum", "damage",   NULL};
   const bool diff = s->cfg.force_form == TLPD_FORM_DIFFERENCE;
   const bool imp = s->cfg.contact != TLPD_CONTACT_OFF && s->cfg.contact_law == TLPD_CLAW_IMPACT;
   const char *const *l = pass == EJ_PASS_POST_STEP ? post : pass == 0 ? kin : pass == 1 ? frc : NULL;
-  const int nl = pass == EJ_PASS_POST_STEP ? (int)(sizeof post / sizeof *post)
-                 : pass == 0               ? (int)(sizeof kin / sizeof *kin)
-                 : pass == 1               ? (int)(sizeof frc / sizeof *frc)
-                                           : -1;
-  if (nl < 0 || max < nl + 2) return -1;
+  if (!l || max < 20) return -1;
   int n = 0;
-  for (int k = 0; k < nl; ++k) names[n++] = l[k];
+  while (l[n]) names[n] = l[n], ++n;
   if (pass == 0 && diff) names[n++] = "P";
   if (pass != 0 && imp) names[n++] = "w_contact_dot";
   if (pass == EJ_PASS_POST_STEP && imp) names[n++] = "w_contact";
