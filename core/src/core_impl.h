@@ -388,6 +388,7 @@ struct ej_set {
   int f_x, f_v, f_a, f_m, f_vol0, f_id, f_xb, f_rb, f_x0; /* base field indices (-1 absent) */
   ej_real spacing_min;
   const ej_real *t, *dt; /* the simulation's clock (NULL outside a run) */
+  const struct ej_sim *sim; /* the run it belongs to (NULL outside one): ej_set_held, ej_set_image_source */
   int n_hist;
   int f_hist[EJ_MAX_HIST]; /* fields of the strength model's history variables */
   bool in_interaction;     /* a two-set interaction lists it: x_build kept current */

@@ -680,6 +680,7 @@ static ej_err ej_sets_create(ej_sim *sim)
     s->mconfig = ss->method_config;
     s->model = &sim->models[ss->material];
     s->t = &sim->t;
+    s->sim = sim;
     s->dt = &sim->dt;
     ej_decl d = {.set = s};
     EJ_TRY(s->mops->declare(s->mconfig, sc->dimension, &d));
@@ -1224,6 +1225,22 @@ static void ej_bc_fixed(const ej_sim *sim, const ej_set *s, ej_idx i, bool fixed
 }
 
 /* F = -K w (zero in the held components) into f, and F / m added to a. */
+unsigned ej_set_held(const ej_set *s, ej_idx i)
+{
+  if (!s->sim || !s->bc_mask || i < 0 || i >= s->n) return 0;
+  bool fixed[3];
+  ej_bc_fixed(s->sim, s, i, fixed);
+  return (fixed[0] ? 1u : 0u) | (fixed[1] ? 2u : 0u) | (fixed[2] ? 4u : 0u);
+}
+
+ej_idx ej_set_image_source(const ej_set *s, ej_idx j, ej_real Q[9])
+{
+  const bool ghost = s->sim && j >= s->n && j < s->n + s->n_ghost;
+  const ej_real *q = ghost ? s->sim->xforms[s->ghost_xf[j - s->n]].Q : NULL;
+  for (int k = 0; k < 9; ++k) Q[k] = q ? q[k] : (k % 4 == 0 ? 1.0 : 0.0);
+  return ghost ? s->ghost_src[j - s->n] : j;
+}
+
 static void ej_nonreflect_apply(const ej_real K[9], const bool fixed[3], const ej_real w[3], ej_real m, ej_real f[3],
                                 ej_real a[3])
 {
@@ -1516,6 +1533,13 @@ static int ej_inter_pre_slot(const ej_inter *in)
   return slot;
 }
 
+/* A method's serial stage (ABI 1.12): after pass `stage` over every range, or EJ_STAGE_FORCES. */
+static ej_err ej_serial(ej_set *s, int stage)
+{
+  if (!EJ_HAS_OP(s->mops, ej_method_ops, serial)) return EJ_OK;
+  return s->mops->serial(s->mstate, s, s->list ? &s->list->pub : NULL, stage);
+}
+
 static ej_err ej_compute_all(ej_sim *sim, bool in_step)
 {
   int max_pass = 0;
@@ -1541,7 +1565,8 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
       EJ_TRY(ej_ghosts_refresh(sim, s));
       ej_pass_ctx pc = {pass};
       ej_mark_pass(s, pass);
-      const ej_err rc = ej_for_chunks(sim, s, ej_compute_chunk, &pc);
+      ej_err rc = ej_for_chunks(sim, s, ej_compute_chunk, &pc);
+      if (rc == EJ_OK) rc = ej_serial(s, pass);
       /* the initial evaluation (also `ejecta check`'s) refusing the input: placed at the set */
       EJ_TRY(in_step ? rc : ej_located(rc, &sim->scene->sets[i].loc));
     }
@@ -1559,6 +1584,7 @@ static ej_err ej_compute_all(ej_sim *sim, bool in_step)
     ej_set *s = sim->sets[i];
     if (EJ_HAS_OP(s->mops, ej_method_ops, finish) && s->mops->finish)
       EJ_TRY(ej_for_chunks(sim, s, ej_finish_chunk, NULL));
+    EJ_TRY(ej_serial(s, EJ_STAGE_FORCES));
   }
   if (!in_step)
     for (int i = 0; i < sim->n_sets; ++i) {

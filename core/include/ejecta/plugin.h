@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 11 /* members appended to an info or ops struct; services added */
+#define EJ_ABI_MINOR 12 /* members appended to an info or ops struct; services added */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -271,6 +271,16 @@ int64_t ej_set_list_builds(const ej_set *s);
  * on the particles' distance to the planes (ej_set_count_all). */
 bool ej_set_has_images(const ej_set *s);
 
+/* --- ABI 1.12. Essential boundaries, for methods whose nodal values are not their coefficients
+ * (rkpm's transformation method). ej_set_held: the components of owned particle i that an active
+ * `fix` or `velocity` boundary holds at the set's current time, as bits (1: x, 2: y, 4: z); the
+ * core keeps them at the prescribed velocity (zero acceleration after the force evaluation).
+ * ej_set_image_source: for a ghost j (ej_set_count(s) <= j < ej_set_count_all(s)) the owned
+ * particle it is an image of, and in Q the 3x3 tensor (row-major) that maps the source's vectors
+ * to the image's (a product of mirrors: v_j = Q v_src); an owned j returns j and Q = I. */
+unsigned ej_set_held(const ej_set *s, ej_idx i);
+ej_idx ej_set_image_source(const ej_set *s, ej_idx j, ej_real Q[9]);
+
 /* ------------------------------------------------------------------ EOS */
 
 typedef struct ej_eos ej_eos; /* an EOS instance (opaque) */
@@ -461,8 +471,17 @@ typedef struct ej_method_ops {
    * orientation, work summed over the run): see EJ_MAX_STATE. May be NULL. */
   ej_err (*save_state)(const void *state, ej_real *buf, int max, int *n);
   ej_err (*load_state)(void *state, const ej_real *buf, int n);
+  /* --- ABI 1.12. Serial work over the whole set, for what no range can do alone (rkpm's
+   * transformation method for essential boundaries solves a linear system over the held nodes).
+   * Called once per force evaluation (the initial one too) with stage = pass after method pass
+   * `pass` has run over every range (before the ghost refresh of the next pass), and with stage =
+   * EJ_STAGE_FORCES after every interaction and the method's finish, before the core adds gravity
+   * and applies the constraints. Writes owned particles only. With stage = pass its writes count
+   * as that pass's (pass_writes); with EJ_STAGE_FORCES it may write a and the rates. May be NULL. */
+  ej_err (*serial)(void *state, ej_set *set, const ej_nbr *nbr, int stage);
 } ej_method_ops;
 #define EJ_PASS_POST_STEP (-1) /* pass_writes: the fields post_step writes */
+#define EJ_STAGE_FORCES (-2)   /* serial: after the interactions and finish */
 
 /* ------------------------------------------------------------------ interactions */
 

@@ -47,6 +47,7 @@
 
 #include "ejecta/plugin.h"
 #include "ejecta/tensor.h"
+#include "rk_essential.h"
 
 #if defined(__AVX2__)
 #include <immintrin.h>
@@ -66,6 +67,8 @@ enum { RK_STAB_MATERIAL = 0, RK_STAB_ELASTIC = 1 };
 static const char *const rk_stab_stress[] = {"material", "elastic", NULL};
 enum { RK_PART_FULL = 0, RK_PART_DEVIATORIC = 1 };
 static const char *const rk_stab_part[] = {"full", "deviatoric", NULL};
+enum { RK_ESS_COEFFICIENTS = 0, RK_ESS_TRANSFORMATION = 1 };
+static const char *const rk_essentials[] = {"coefficients", "transformation", NULL};
 
 #define RK_MAX_HIST 32
 #define RK_NF_MAX 36 /* face quadrature points of a nodal box (3D: 24 outer + 12 inner) */
@@ -108,6 +111,7 @@ typedef struct rk_config {
   ej_real stabilization;
   ej_real rcond_min;
   bool force_scatter;
+  int essential;
 } rk_config;
 
 static const ej_param rk_params[] = {
@@ -151,6 +155,13 @@ static const ej_param rk_params[] = {
                   "evaluation of them in the force pass (README \"Force scatter\"): about 1.2-1.3x faster "
                   "steps for about 28 bytes more per neighbour-list entry (+65 % memory on a 3D block). "
                   "The same forces to round-off; false saves the memory."),
+    EJ_PARAM_ENUM(rk_config, essential, rk_essentials, "coefficients",
+                  "How `fix` and `velocity` boundaries hold an RK field, whose shape functions are not "
+                  "interpolating: coefficients = the core holds the nodal coefficients (the field at a held "
+                  "node is off by O(h^2) where it is curved); transformation = the mixed transformation method "
+                  "(Chen & Wang 2000): the held velocity is the field's value at the node, the held nodes' "
+                  "coefficients solve Psi(x_B) d = v_B every step and their forces are transformed (T^T f) "
+                  "onto their neighbours (README \"Essential boundary conditions\")."),
     {0}};
 
 typedef struct rk_state {
@@ -213,6 +224,10 @@ typedef struct rk_state {
   size_t own_cap;
   rk_keep *keep;  /* [nkeep][RK_BLOCK_SL] */
   int nkeep;
+  /* essential: transformation (README "Essential boundary conditions"): ess_on when this force
+   * evaluation holds nodes, then passes 1 and 2 read the coefficients rk_vc (and rk_xc) */
+  rk_ess *ess;
+  bool ess_on;
 } rk_state;
 
 static inline int rk_qcode(const int q[3]) { return (q[0] + 2) + 5 * (q[1] + 2) + 25 * (q[2] + 2); }
@@ -482,6 +497,19 @@ static ej_err rk_declare(const void *config, int dim, ej_decl *d)
     };
     for (size_t k = 0; k < sizeof lf / sizeof lf[0]; ++k) EJ_TRY(ej_decl_field(d, &lf[k]));
   }
+  if (cfg->essential == RK_ESS_TRANSFORMATION) {
+    static const ej_field_decl ef[] = {
+        {.name = "rk_vc", .kind = EJ_VEC3, .flags = EJ_FIELD_SCRATCH, .unit = "m/s",
+         .doc = "Velocity coefficients (transformation method: v, with the held nodes' coefficients)."},
+    };
+    for (size_t k = 0; k < sizeof ef / sizeof ef[0]; ++k) EJ_TRY(ej_decl_field(d, &ef[k]));
+    if (lag) {
+      static const ej_field_decl xc = {
+          .name = "rk_xc", .kind = EJ_VEC3, .flags = EJ_FIELD_SCRATCH | EJ_FIELD_POSITION, .unit = "m",
+          .doc = "Position coefficients x0 + d_u (transformation method, Lagrangian formulation)."};
+      EJ_TRY(ej_decl_field(d, &xc));
+    }
+  }
   EJ_TRY(ej_decl_neighbours(d, lag ? EJ_NBR_REFERENCE : EJ_NBR_CURRENT));
   return EJ_OK;
 }
@@ -540,6 +568,7 @@ static void rk_destroy(void *state)
   ej_free(s->fself);
   ej_free(s->fscat);
   ej_free(s->keep);
+  rk_ess_destroy(s->ess);
   ej_free(s);
 }
 
@@ -596,6 +625,11 @@ static ej_err rk_setup(void *state, ej_set *set)
     ej_real *sig = ej_set_field(set, "rk_sig");
     EJ_ENSURE(sig, EJ_ERR_INTERNAL, "set '%s': rkpm field rk_sig missing", s->set_name);
     for (ej_idx i = 0; i < n; ++i) sig[3 * i] = sig[3 * i + 1] = sig[3 * i + 2] = 1.0;
+  }
+  if (s->cfg.essential == RK_ESS_TRANSFORMATION) {
+    rk_ess_destroy(s->ess);
+    s->ess = NULL;
+    EJ_TRY(rk_ess_create(&s->ess, n));
   }
   /* An initial pressure state (EOS) gives the initial stress -p I. */
   if (s->eos && n > 0) {
@@ -1831,8 +1865,8 @@ static ej_err rk_pass_material(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_r
 {
   EJ_ENSURE(nbr && nbr->n_rows >= r.end, EJ_ERR_INTERNAL, "set '%s': rkpm neighbour list too short", s->set_name);
   rk_args A = {.X = ej_set_field(set, s->lagrangian ? "x0" : "x"),
-               .x = ej_set_field(set, "x"),
-               .v = ej_set_field(set, "v"),
+               .x = ej_set_field(set, s->ess_on && s->lagrangian ? "rk_xc" : "x"),
+               .v = ej_set_field(set, s->ess_on ? "rk_vc" : "v"),
                .vm = ej_set_field(set, "rk_vmid"),
                .ra = ej_set_field(set, "rk_a"),
                .m0 = ej_set_field(set, "rk_m0"),
@@ -2348,7 +2382,7 @@ static ej_err rk_pass_force(rk_state *s, ej_set *set, const ej_nbr *nbr, ej_rang
 {
   EJ_ENSURE(nbr && nbr->n_rows >= r.end, EJ_ERR_INTERNAL, "set '%s': rkpm neighbour list too short", s->set_name);
   rk_args A = {.X = ej_set_field(set, s->lagrangian ? "x0" : "x"),
-               .v = ej_set_field(set, "v"),
+               .v = ej_set_field(set, s->ess_on ? "rk_vc" : "v"),
                .ra = ej_set_field(set, "rk_a"),
                .m = ej_set_field(set, "m"),
                .rho = ej_set_field(set, "rho"),
@@ -2422,6 +2456,93 @@ static ej_err rk_compute(void *state, ej_set *set, const ej_nbr *nbr, int pass, 
   return EJ_OK;
 }
 
+/* ------------------------------------------------------------------ essential boundaries */
+
+/* Rows Lambda_KJ = Psi_J(X_K) of the held nodes K from the moments of pass 0: with
+ * h = (X_K - X_J)/a_K, Psi_J(X_K) = (m0_K + m1_K . h) phi(|X_K - X_J|/a_J), the self entry
+ * m0_K phi(0) first (the sums of rk_moment_rows, so the row sums to 1 to round-off). A ghost J
+ * stands for its source with the mirror's sign per component; a mirror that is not along the
+ * axes mixes the components and is refused. */
+static ej_err rk_ess_rows(rk_state *s, const ej_set *set, const ej_nbr *nbr)
+{
+  rk_ess *e = s->ess;
+  const int dim = s->dim;
+  const ej_real *X = ej_set_field(set, s->lagrangian ? "x0" : "x"), *ra = ej_set_field(set, "rk_a");
+  const ej_real *m0 = ej_set_field(set, "rk_m0"), *m1 = ej_set_field(set, "rk_m1");
+  EJ_ENSURE(X && ra && m0 && m1 && nbr, EJ_ERR_INTERNAL, "set '%s': rkpm moment fields missing", s->set_name);
+  size_t nnz = 0;
+  for (ej_idx k = 0; k < e->nb; ++k) nnz += 1 + (size_t)(nbr->off[e->blist[k] + 1] - nbr->off[e->blist[k]]);
+  EJ_TRY(rk_ess_reserve(e, nnz));
+  ej_off q = 0;
+  for (ej_idx k = 0; k < e->nb; ++k) {
+    const ej_idx K = e->blist[k];
+    const ej_real inv_l = 1.0 / ra[K];
+    e->rsrc[q] = K, e->rval[q] = m0[K] * RK_PHI0;
+    e->rsgn[3 * q] = e->rsgn[3 * q + 1] = e->rsgn[3 * q + 2] = 1;
+    ++q;
+    for (ej_off p = nbr->off[K]; p < nbr->off[K + 1]; ++p) {
+      const ej_idx J = nbr->idx[p];
+      ej_real h[3] = {0, 0, 0}, r2 = 0;
+      for (int d = 0; d < dim; ++d) h[d] = X[3 * K + d] - X[3 * J + d], r2 += h[d] * h[d];
+      if (r2 >= ra[J] * ra[J]) continue;
+      ej_real Q[9], lin = m0[K];
+      for (int d = 0; d < dim; ++d) lin += m1[3 * K + d] * h[d] * inv_l;
+      e->rsrc[q] = ej_set_image_source(set, J, Q);
+      e->rval[q] = lin * rk_phi(sqrt(r2) / ra[J]);
+      for (int c = 0; c < 3; ++c) {
+        const ej_real d = Q[4 * c];
+        const bool axis = (d == 1.0 || d == -1.0) && Q[3 * c + (c + 1) % 3] == 0.0 && Q[3 * c + (c + 2) % 3] == 0.0;
+        EJ_ENSURE(axis, EJ_ERR_UNSUPPORTED,
+                  "set '%s': rkpm `essential: transformation` needs symmetry planes along the axes (an image "
+                  "mixes the velocity components)",
+                  s->set_name);
+        e->rsgn[3 * q + c] = (int8_t)d;
+      }
+      ++q;
+    }
+    e->roff[k + 1] = q;
+  }
+  rk_ess_rows_done(e);
+  return EJ_OK;
+}
+
+/* ABI 1.12 serial stages: after pass 0 (moments known), the held nodes' coefficients of v and of
+ * the mid-step velocity (and, Lagrangian, of the displacement); after the interactions, the
+ * transformed forces. */
+static ej_err rk_serial(void *state, ej_set *set, const ej_nbr *nbr, int stage)
+{
+  rk_state *s = state;
+  if (!s->ess) return EJ_OK;
+  if (stage == EJ_STAGE_FORCES) {
+    if (!s->ess_on) return EJ_OK;
+    const ej_real *m = ej_set_field(set, "m");
+    ej_real *a = ej_set_field(set, "a");
+    EJ_ENSURE(m && a, EJ_ERR_INTERNAL, "set '%s': rkpm fields missing", s->set_name);
+    return rk_ess_forces(s->ess, s->set_name, m, a);
+  }
+  if (stage != 0) return EJ_OK;
+  s->ess_on = false;
+  EJ_TRY(rk_ess_held(s->ess, set));
+  if (s->ess->nb == 0) return EJ_OK;
+  EJ_TRY(rk_ess_rows(s, set, nbr));
+  const ej_real *v = ej_set_field(set, "v");
+  ej_real *vc = ej_set_field(set, "rk_vc"), *vm = ej_set_field(set, "rk_vmid");
+  EJ_ENSURE(v && vc && vm, EJ_ERR_INTERNAL, "set '%s': rkpm velocity fields missing", s->set_name);
+  EJ_TRY(rk_ess_coefficients(s->ess, s->set_name, v, vc));
+  EJ_TRY(rk_ess_coefficients(s->ess, s->set_name, vm, vm));
+  if (s->lagrangian) {
+    const ej_real *x = ej_set_field(set, "x"), *x0 = ej_set_field(set, "x0");
+    ej_real *xc = ej_set_field(set, "rk_xc");
+    EJ_ENSURE(x && x0 && xc, EJ_ERR_INTERNAL, "set '%s': rkpm position fields missing", s->set_name);
+    const ej_idx n = ej_set_count(set);
+    for (ej_idx i = 0; i < 3 * n; ++i) xc[i] = x[i] - x0[i];
+    EJ_TRY(rk_ess_coefficients(s->ess, s->set_name, xc, xc));
+    for (ej_idx i = 0; i < 3 * n; ++i) xc[i] += x0[i];
+  }
+  s->ess_on = true;
+  return EJ_OK;
+}
+
 /* ------------------------------------------------------------------ time step, counters */
 
 /* dt_I = h_I / c_I with h_I the current nodal spacing (m/rho)^(1/dim) and c_I the larger of the
@@ -2456,6 +2577,18 @@ static ej_err rk_counters(void *state, ej_counter *out, int max, int *n)
   for (ej_idx i = 0; i < ej_set_count(s->set); ++i) total += fb[i];
   out[0] = (ej_counter){.name = "moment matrix fallbacks to the constant basis (node-steps)", .value = total};
   *n = 1;
+  if (s->ess && max >= 4) {
+    out[1] = (ej_counter){.name = "transformation method: held-node solves (component and right-hand side)",
+                          .value = s->ess->solves};
+    out[2] = (ej_counter){.name = "transformation method: BiCGSTAB iterations, total", .value = s->ess->iters};
+    out[3] = (ej_counter){.name = "transformation method: BiCGSTAB iterations, most in one solve", .value = s->ess->maxit};
+    *n = 4;
+    if (max >= 5 && s->ess->degenerate) {
+      out[4] = (ej_counter){.name = "transformation method: held components dropped (symmetry plane, node-steps)",
+                            .value = s->ess->degenerate};
+      *n = 5;
+    }
+  }
   return EJ_OK;
 }
 
@@ -2503,6 +2636,7 @@ static const ej_method_ops rk_ops = {
     .destroy = rk_destroy,
     .pass_count = NULL,
     .report = rk_report,
+    .serial = rk_serial,
 };
 
 static ej_err rk_register(ej_registry *reg)
