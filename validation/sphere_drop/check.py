@@ -215,6 +215,8 @@ def main():
     ap.add_argument("--mu", type=float, default=MU,
                     help=f"kernel_contact Coulomb friction between ball and beads (default {MU:g}; 003 gives none, "
                          "digest 003 gap 28: diagnostic runs only)")
+    ap.add_argument("--essential", default="coefficients", choices=["coefficients", "transformation"],
+                    help="rkpm essential: how the container's fixed nodes hold the field (diagnostic runs)")
     ap.add_argument("--no-figures", action="store_true", help="diagnostic runs: write no figures")
     ap.add_argument("--name-tag", default="", help="suffix for the run names (diagnostic runs)")
     ap.add_argument("--earlier", default="",
@@ -241,12 +243,14 @@ def main():
                 + ("" if not a.contact_damping else f"_cd{a.contact_damping:g}")
                 + ("" if a.contact_normal == "pair" else "_nbody")
                 + ("" if a.mu == MU else f"_mu{a.mu:g}")
+                + ("" if a.essential == "coefficients" else "_transf")
                 + ctag + a.name_tag)
         r0 = os.times()
         path, wall = common.run(exe, scene(h, s, a.t_end, a.phi, a.damage, a.width, a.depth, a.ball_modulus,
                                                   a.ball_spacing, a.integration, a.msnni_stress,
                                                   a.msnni_w, a.stabilization,
-                                                  "" if a.msnni_part is None else f"\n    msnni_part: {a.msnni_part}",
+                                                  ("" if a.msnni_part is None else f"\n    msnni_part: {a.msnni_part}")
+                                                  + ("" if a.essential == "coefficients" else f"\n    essential: {a.essential}"),
                                                   beads=a.beads, contact_damping=a.contact_damping,
                                                   contact_normal=a.contact_normal, mu=a.mu),
                                 name, a.out,
