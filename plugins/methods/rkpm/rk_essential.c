@@ -21,7 +21,13 @@ ej_err rk_ess_create(rk_ess **out, ej_idx n)
   e->bpos = ej_calloc(nn, sizeof *e->bpos);
   e->blist = ej_calloc(nn, sizeof *e->blist);
   e->roff = ej_calloc(nn + 1, sizeof *e->roff);
-  if (!e->held || !e->bpos || !e->blist || !e->roff) {
+  bool ok = e->held && e->bpos && e->blist && e->roff;
+  for (int c = 0; c < 3 && ok; ++c) {
+    e->aoff[c] = ej_calloc(nn + 1, sizeof *e->aoff[c]);
+    e->adiag[c] = ej_calloc(nn, sizeof *e->adiag[c]);
+    ok = e->aoff[c] && e->adiag[c];
+  }
+  if (!ok) {
     rk_ess_destroy(e);
     EJ_FAIL(EJ_ERR_MEM, "rkpm transformation: out of memory (%lld nodes)", (long long)n);
   }
@@ -40,6 +46,12 @@ void rk_ess_destroy(rk_ess *e)
   ej_free(e->rval);
   ej_free(e->rsgn);
   ej_free(e->w);
+  for (int c = 0; c < 3; ++c) {
+    ej_free(e->aoff[c]);
+    ej_free(e->acol[c]);
+    ej_free(e->aval[c]);
+    ej_free(e->adiag[c]);
+  }
   ej_free(e);
 }
 
@@ -82,7 +94,7 @@ ej_err rk_ess_reserve(rk_ess *e, size_t nnz)
 /* Whether owned node M is an unknown of component c. */
 static inline bool rk_ess_act(const rk_ess *e, ej_idx M, int c) { return (e->held[M] >> c) & 1u; }
 
-void rk_ess_rows_done(rk_ess *e)
+ej_err rk_ess_rows_done(rk_ess *e)
 {
   for (ej_idx k = 0; k < e->nb; ++k) {
     const ej_idx K = e->blist[k];
@@ -99,30 +111,72 @@ void rk_ess_rows_done(rk_ess *e)
       }
     }
   }
+  /* the compact systems: one entry per (row, unknown) in the order of first appearance */
+  const size_t need = (size_t)e->roff[e->nb] + (size_t)e->nb;
+  if (need > e->acap) {
+    const size_t cap = need + need / 8 + 64;
+    for (int c = 0; c < 3; ++c) {
+      ej_idx *col = ej_realloc(e->acol[c], cap * sizeof *col);
+      if (col) e->acol[c] = col;
+      ej_real *val = ej_realloc(e->aval[c], cap * sizeof *val);
+      if (val) e->aval[c] = val;
+      EJ_ENSURE(col && val, EJ_ERR_MEM, "rkpm transformation: out of memory (%zu entries)", cap);
+    }
+    e->acap = cap;
+  }
+  for (int c = 0; c < 3; ++c) {
+    ej_off *off = e->aoff[c];
+    ej_idx *col = e->acol[c];
+    ej_real *val = e->aval[c];
+    ej_off o = 0;
+    off[0] = 0;
+    for (ej_idx k = 0; k < e->nb; ++k) {
+      const ej_idx K = e->blist[k];
+      e->adiag[c][k] = 1.0;
+      if (!rk_ess_act(e, K, c)) {
+        col[o] = k, val[o] = 1.0, ++o;
+        off[k + 1] = o;
+        continue;
+      }
+      const ej_off row0 = o;
+      for (ej_off q = e->roff[k]; q < e->roff[k + 1]; ++q) {
+        const ej_idx M = e->rsrc[q];
+        if (!rk_ess_act(e, M, c)) continue;
+        const ej_idx m = e->bpos[M];
+        const ej_real a = e->rval[q] * e->rsgn[3 * q + c];
+        ej_off t = row0;
+        while (t < o && col[t] != m) ++t; /* images of a node already in the row: merged */
+        if (t < o) {
+          val[t] += a;
+        } else {
+          col[o] = m, val[o] = a, ++o;
+        }
+      }
+      for (ej_off t = row0; t < o; ++t)
+        if (col[t] == k) e->adiag[c][k] = val[t];
+      off[k + 1] = o;
+    }
+  }
+  return EJ_OK;
 }
 
-/* y = A x (trans: A^T x) over the held nodes for component c; rows of nodes not held in c are
- * the identity. */
+/* y = A x (trans: A^T x) over the held nodes for component c (the compact system). */
 static void rk_ess_apply(const rk_ess *e, int c, bool trans, const ej_real *x, ej_real *y)
 {
   const ej_idx nb = e->nb;
-  if (trans)
-    for (ej_idx k = 0; k < nb; ++k) y[k] = rk_ess_act(e, e->blist[k], c) ? 0.0 : x[k];
+  const ej_off *restrict off = e->aoff[c];
+  const ej_idx *restrict col = e->acol[c];
+  const ej_real *restrict val = e->aval[c];
+  if (trans) {
+    for (ej_idx k = 0; k < nb; ++k) y[k] = 0.0;
+    for (ej_idx k = 0; k < nb; ++k)
+      for (ej_off t = off[k]; t < off[k + 1]; ++t) y[col[t]] += val[t] * x[k];
+    return;
+  }
   for (ej_idx k = 0; k < nb; ++k) {
-    const ej_idx K = e->blist[k];
-    if (!rk_ess_act(e, K, c)) {
-      if (!trans) y[k] = x[k];
-      continue;
-    }
     ej_real acc = 0;
-    for (ej_off q = e->roff[k]; q < e->roff[k + 1]; ++q) {
-      const ej_idx M = e->rsrc[q];
-      if (!rk_ess_act(e, M, c)) continue;
-      const ej_real a = e->rval[q] * e->rsgn[3 * q + c];
-      if (trans) y[e->bpos[M]] += a * x[k];
-      else acc += a * x[e->bpos[M]];
-    }
-    if (!trans) y[k] = acc;
+    for (ej_off t = off[k]; t < off[k + 1]; ++t) acc += val[t] * x[col[t]];
+    y[k] = acc;
   }
 }
 
@@ -149,14 +203,7 @@ static ej_err rk_ess_solve(rk_ess *e, const char *set_name, int c, bool trans, c
   ej_real *r = e->w + nb, *rh = e->w + 2 * nb, *p = e->w + 3 * nb, *v = e->w + 4 * nb, *s = e->w + 5 * nb,
           *t = e->w + 6 * nb, *z = e->w + 7 * nb, *dinv = e->w + 8 * nb;
   /* Jacobi: the weight of each unknown on its own row (the same for A and A^T) */
-  for (ej_idx k = 0; k < nb; ++k) {
-    const ej_idx K = e->blist[k];
-    ej_real own = 0;
-    if (rk_ess_act(e, K, c))
-      for (ej_off q = e->roff[k]; q < e->roff[k + 1]; ++q)
-        if (e->rsrc[q] == K) own += e->rval[q] * e->rsgn[3 * q + c];
-    dinv[k] = rk_ess_act(e, K, c) ? 1.0 / own : 1.0;
-  }
+  for (ej_idx k = 0; k < nb; ++k) dinv[k] = 1.0 / e->adiag[c][k];
   const ej_real tol = RK_ESS_RTOL * (scale > 0 ? scale : 1.0);
   e->solves++;
   int it = 0;

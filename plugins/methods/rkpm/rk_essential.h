@@ -28,6 +28,14 @@ typedef struct rk_ess {
   ej_real *rval;  /* [cap] Lambda_KJ = Psi_J(x_K), the self entry first */
   int8_t *rsgn;   /* [cap][3] sign of each vector component on the image (+1 for an owned J) */
   size_t cap;
+  /* The system of component c over the held nodes (rk_ess_rows_done): row k = blist[k], entries
+   * (column = position of the unknown, value = Lambda_KJ times the image's sign, images of one
+   * node merged in row order), the identity row for a node not held in c; adiag = its diagonal. */
+  ej_off *aoff[3];  /* [nb + 1] */
+  ej_idx *acol[3];  /* [acap] */
+  ej_real *aval[3]; /* [acap] */
+  ej_real *adiag[3]; /* [nb] */
+  size_t acap;
   ej_real *w;     /* [RK_ESS_NW][nb cap] solver vectors */
   ej_idx wcap;
   int64_t solves, iters, degenerate, maxit; /* run totals; maxit: most iterations of one solve */
@@ -41,8 +49,9 @@ ej_err rk_ess_held(rk_ess *e, const ej_set *set);
 ej_err rk_ess_reserve(rk_ess *e, size_t nnz);
 /* After the rows: a held component whose row has no weight on its own unknown (a node on a
  * symmetry plane held normal to it: its mirror image cancels its own entry, and the field is zero
- * there by symmetry anyway) is dropped from the system and keeps its nodal value as coefficient. */
-void rk_ess_rows_done(rk_ess *e);
+ * there by symmetry anyway) is dropped from the system and keeps its nodal value as coefficient.
+ * Then builds the compact system of each component. */
+ej_err rk_ess_rows_done(rk_ess *e);
 /* Coefficients of the held components: for every held node K and held component c, out[3K + c]
  * such that the RK field of val (out on the held, val elsewhere; ghosts through their source and
  * sign) takes the value val[3K + c] at x_K. Other entries of out: val's. out may be val. */

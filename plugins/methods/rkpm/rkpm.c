@@ -2502,8 +2502,7 @@ static ej_err rk_ess_rows(rk_state *s, const ej_set *set, const ej_nbr *nbr)
     }
     e->roff[k + 1] = q;
   }
-  rk_ess_rows_done(e);
-  return EJ_OK;
+  return rk_ess_rows_done(e);
 }
 
 /* ABI 1.12 serial stages: after pass 0 (moments known), the held nodes' coefficients of v and of
