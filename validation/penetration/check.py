@@ -46,7 +46,8 @@ MATERIALS = """materials:
   steel: {rho0: 8050}"""
 
 
-def scene(angle, s, sp, t_end, width=16.0, depth=8.0, mu=0.1, integration="msnni", every="5 ms", out="out/p.h5"):
+def scene(angle, s, sp, t_end, width=16.0, depth=8.0, mu=0.1, integration="msnni", every="5 ms", out="out/p.h5",
+          essential="coefficients"):
     a, c, _ = geometry(angle)
     v = V0 * a
     hw = width / 2
@@ -62,6 +63,7 @@ sets:
   soil:
     method: rkpm
     integration: {integration}
+    essential: {essential}
     material: soil
     shape: {{box: {{min: [{-hw}, {-depth}], max: [{hw}, 0]}}}}
     spacing: {s}
@@ -124,13 +126,16 @@ def main():
     ap.add_argument("--integration", default="msnni", choices=["msnni", "scni_box", "dni"])
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--reuse", action="store_true")
+    ap.add_argument("--essential", default="coefficients", choices=["coefficients", "transformation"],
+                    help="rkpm essential: how the fixed soil faces hold the field (diagnostic runs)")
     a = ap.parse_args()
     exe = common.ejecta_binary(a.build)
     s = a.spacing
     sp = a.proj_spacing
     rows = []
     for ang in [int(x) for x in a.angles.split(",")]:
-        name = f"pen_{ang}deg_s{s * 1000:g}mm_{a.integration}_mu{a.mu:g}"
+        name = (f"pen_{ang}deg_s{s * 1000:g}mm_{a.integration}_mu{a.mu:g}"
+                + ("" if a.essential == "coefficients" else "_transf"))
         r0 = os.times()
         partial = os.path.join(a.out, name + ".h5.partial")
         crashed = None
@@ -139,7 +144,7 @@ def main():
         else:
             try:
                 path, wall = common.run(exe, scene(ang, s, sp, a.t_end, mu=a.mu, integration=a.integration,
-                                                   out=f"out/{name}.h5"), name, a.out, threads=a.threads, reuse=a.reuse)
+                                                   out=f"out/{name}.h5", essential=a.essential), name, a.out, threads=a.threads, reuse=a.reuse)
             except RuntimeError as ex:  # the run stopped (e.g. NaN): analyse what it wrote, rule 5 fails
                 path, crashed = partial, str(ex)
         r1 = os.times()
