@@ -1224,7 +1224,7 @@ static void ej_bc_fixed(const ej_sim *sim, const ej_set *s, ej_idx i, bool fixed
         for (int k = 0; k < 3; ++k) fixed[k] |= sim->scene->bcs[b].comp[k];
 }
 
-/* F = -K w (zero in the held components) into f, and F / m added to a. */
+/* ABI 1.12 (plugin.h): the components an active fix or prescribed velocity holds, as bits. */
 unsigned ej_set_held(const ej_set *s, ej_idx i)
 {
   if (!s->sim || !s->bc_mask || i < 0 || i >= s->n) return 0;
@@ -1233,6 +1233,7 @@ unsigned ej_set_held(const ej_set *s, ej_idx i)
   return (fixed[0] ? 1u : 0u) | (fixed[1] ? 2u : 0u) | (fixed[2] ? 4u : 0u);
 }
 
+/* ABI 1.12: a ghost's owned source and the vector part of its (composed) transform. */
 ej_idx ej_set_image_source(const ej_set *s, ej_idx j, ej_real Q[9])
 {
   const bool ghost = s->sim && j >= s->n && j < s->n + s->n_ghost;
@@ -1241,6 +1242,7 @@ ej_idx ej_set_image_source(const ej_set *s, ej_idx j, ej_real Q[9])
   return ghost ? s->ghost_src[j - s->n] : j;
 }
 
+/* F = -K w (zero in the held components) into f, and F / m added to a. */
 static void ej_nonreflect_apply(const ej_real K[9], const bool fixed[3], const ej_real w[3], ej_real m, ej_real f[3],
                                 ej_real a[3])
 {
