@@ -747,8 +747,10 @@ static double ess_run(const char *formulation, const char *integration, const ch
   const ej_idx n = ej_set_count(s), nall = ej_set_count_all(s);
   double vmax = 0, miss = 0;
   static double u[3 * 4096];
+  ck_assert_int_le(nall, 4096);
+  const ej_real *x = ej_set_field(s, "x"), *x0 = ej_set_field(s, "x0");
   if (lag) { /* displacement coefficients: rk_xc - x0 (transformation) or x - x0 */
-    const ej_real *xc = ej_set_field(s, tr ? "rk_xc" : "x"), *x0 = ej_set_field(s, "x0");
+    const ej_real *xc = tr ? ej_set_field(s, "rk_xc") : x;
     for (ej_idx i = 0; i < 3 * nall; ++i) u[i] = xc[i] - x0[i];
   }
   int held = 0;
@@ -760,7 +762,6 @@ static double ess_run(const char *formulation, const char *integration, const ch
     double f[3], g[3] = {0, 0, 0};
     ess_field_at(s, X, a, d, i, f);
     if (lag) ess_field_at(s, X, a, u, i, g);
-    const ej_real *x = ej_set_field(s, "x"), *x0 = ej_set_field(s, "x0");
     for (int k = 0; k < 3; ++k)
       if (hb >> k & 1u) {
         miss = fmax(miss, fabs(f[k] - v[3 * i + k]));
