@@ -23,7 +23,7 @@ extern "C" {
 #endif
 
 #define EJ_ABI_MAJOR 1 /* incompatible change: every plugin must be rebuilt */
-#define EJ_ABI_MINOR 12 /* members appended to an info or ops struct; services added */
+#define EJ_ABI_MINOR 13 /* members appended to an info or ops struct; services added */
 
 #if defined(__GNUC__)
 #define EJ_EXPORT __attribute__((visibility("default")))
@@ -280,6 +280,26 @@ bool ej_set_has_images(const ej_set *s);
  * to the image's (a product of mirrors: v_j = Q v_src); an owned j returns j and Q = I. */
 unsigned ej_set_held(const ej_set *s, ej_idx i);
 ej_idx ej_set_image_source(const ej_set *s, ej_idx j, ej_real Q[9]);
+
+/* --- ABI 1.13. Initial stress, for methods that integrate a rate-form Cauchy stress (tlpd,
+ * rkpm): one `initial_stress` block with the same keys in every such method. A method embeds an
+ * ej_initial_stress in its config, lists it with
+ *   EJ_PARAM_BLOCK(my_config, initial_stress, ej_initial_stress_params, ej_initial_stress, 0, "...")
+ * calls ej_initial_stress_check from its check_config and ej_initial_stress_apply from setup,
+ * on its `stress` field (sym6, owned particles). Sources (one of them; none leaves the stress
+ * alone): `uniform` (six values), `file` (a CSV of points x, y, z, sxx ... szx: each particle takes
+ * the nearest row within a quarter of its spacing) or `geostatic: true` (the overburden of the
+ * set's own density under the scene's gravity below `surface`, plus `surcharge`, horizontal
+ * stresses `k0` times the vertical one). Input errors name the set and the particle. */
+typedef struct ej_initial_stress {
+  ej_real uniform[6];
+  const char *file;
+  bool geostatic;
+  ej_real surface, k0, surcharge;
+} ej_initial_stress;
+extern const ej_param ej_initial_stress_params[];
+ej_err ej_initial_stress_check(const ej_initial_stress *c, ej_diag *diag);
+ej_err ej_initial_stress_apply(const ej_initial_stress *c, const ej_set *set, ej_real *stress);
 
 /* ------------------------------------------------------------------ EOS */
 

@@ -112,6 +112,7 @@ typedef struct rk_config {
   ej_real rcond_min;
   bool force_scatter;
   int essential;
+  ej_initial_stress initial_stress; /* pre-stressed / geostatic start (core, ABI 1.13) */
 } rk_config;
 
 static const ej_param rk_params[] = {
@@ -162,7 +163,16 @@ static const ej_param rk_params[] = {
                   "(Chen & Wang 2000): the held velocity is the field's value at the node, the held nodes' "
                   "coefficients solve Psi(x_B) d = v_B every step and their forces are transformed (T^T f) "
                   "onto their neighbours (README \"Essential boundary conditions\")."),
+    EJ_PARAM_BLOCK(rk_config, initial_stress, ej_initial_stress_params, ej_initial_stress, 0,
+                   "Initial Cauchy stress (like LS-DYNA *INITIAL_STRESS): uniform, per particle from a CSV file, or "
+                   "geostatic from the overburden; the strength model integrates on from it (no strain energy is "
+                   "booked for it in e). Not with an EOS (whose state gives the pressure)."),
     {0}};
+
+static ej_err rk_check_config(const void *config, ej_diag *diag)
+{
+  return ej_initial_stress_check(&((const rk_config *)config)->initial_stress, diag);
+}
 
 typedef struct rk_state {
   rk_config cfg;
@@ -630,6 +640,17 @@ static ej_err rk_setup(void *state, ej_set *set)
     rk_ess_destroy(s->ess);
     s->ess = NULL;
     EJ_TRY(rk_ess_create(&s->ess, n));
+  }
+  const ej_initial_stress *is = &s->cfg.initial_stress;
+  bool prestress = is->geostatic || (is->file && is->file[0]);
+  for (int k = 0; k < 6; ++k) prestress |= is->uniform[k] != 0;
+  if (prestress) {
+    /* the EOS would replace the mean stress from (rho, e) at the first step */
+    EJ_ENSURE(!s->eos, EJ_ERR_INPUT, "set '%s': rkpm initial_stress with an EOS: the EOS state (rho, e) gives the "
+              "pressure; give the initial state through the density and energy instead", s->set_name);
+    ej_real *sg = ej_set_field(set, "stress");
+    EJ_ENSURE(sg, EJ_ERR_INTERNAL, "set '%s': rkpm field stress missing", s->set_name);
+    EJ_TRY(ej_initial_stress_apply(is, set, sg));
   }
   /* An initial pressure state (EOS) gives the initial stress -p I. */
   if (s->eos && n > 0) {
@@ -2622,7 +2643,7 @@ static const ej_method_ops rk_ops = {
            "matrix falls back to the constant basis and is counted.",
     .params = rk_params,
     .config_size = sizeof(rk_config),
-    .check_config = NULL,
+    .check_config = rk_check_config,
     .declare = rk_declare,
     .create = rk_create,
     .setup = rk_setup,

@@ -69,12 +69,6 @@ typedef struct tlpd_traction_cfg {
   ej_real frequency;
 } tlpd_traction_cfg;
 
-/* initial_stress: a prescribed Cauchy stress at t = 0 (pre-stressed / geostatic start) */
-typedef struct tlpd_init_stress_cfg {
-  ej_real uniform[6];
-  const char *file;
-} tlpd_init_stress_cfg;
-
 typedef struct tlpd_config {
   ej_real horizon;
   ej_real horizon_length;
@@ -98,7 +92,7 @@ typedef struct tlpd_config {
   int inversion;
   tlpd_failure_cfg failure;
   tlpd_traction_cfg traction;
-  tlpd_init_stress_cfg initial_stress;
+  ej_initial_stress initial_stress; /* pre-stressed / geostatic start (core, ABI 1.13) */
 } tlpd_config;
 
 static const ej_param tlpd_failure_params[] = {
@@ -123,17 +117,6 @@ static const ej_param tlpd_traction_params[] = {
     EJ_PARAM_REAL(tlpd_traction_cfg, frequency, "1/s", 0, 0, 0, EJ_PF_HAS_MIN,
                   "If > 0, harmonic load P(t) = pressure (1 - cos(frequency t)) / 2 (000 Eq 97), angular "
                   "frequency in rad/s; rise_time is then ignored."),
-    {0}};
-
-static const ej_param tlpd_init_stress_params[] = {
-    EJ_PARAM_ARRAY(tlpd_init_stress_cfg, uniform, 6, "Pa", 0,
-                   "Cauchy stress given to every particle at t = 0, Voigt order xx yy zz xy yz zx (tension "
-                   "positive); default zero."),
-    EJ_PARAM_STRING(tlpd_init_stress_cfg, file, NULL, EJ_PF_PATH,
-                    "CSV file (path absolute or relative to the scene file's directory) with a header line naming "
-                    "the columns x, y, z (as many as the dimension) and any of sxx, syy, szz, sxy, syz, szx (Pa; "
-                    "absent ones 0): each particle takes the stress of the row at its initial position (within "
-                    "a quarter of its spacing; a particle without a row is an error). Not with uniform."),
     {0}};
 
 static const ej_param tlpd_params[] = {
@@ -221,10 +204,10 @@ static const ej_param tlpd_params[] = {
     EJ_PARAM_BLOCK(tlpd_config, traction, tlpd_traction_params, tlpd_traction_cfg, 0,
                    "A pressure on a surface layer, applied as forces P A_i on the particles in a box "
                    "(A_i = vol0_i / dx_i, the face of the particle's cell)."),
-    EJ_PARAM_BLOCK(tlpd_config, initial_stress, tlpd_init_stress_params, tlpd_init_stress_cfg, 0,
+    EJ_PARAM_BLOCK(tlpd_config, initial_stress, ej_initial_stress_params, ej_initial_stress, 0,
                    "Initial Cauchy stress (like LS-DYNA *INITIAL_STRESS): a pre-stressed or geostatic start, "
-                   "uniform or per particle from a CSV file; F = I at t = 0, the material takes it as its "
-                   "stress state (no strain energy is booked for it in e)."),
+                   "uniform, per particle from a CSV file, or geostatic from the overburden; F = I at t = 0, the "
+                   "material takes it as its stress state (no strain energy is booked for it in e)."),
     {0}};
 
 static ej_err tlpd_check_config(const void *config, ej_diag *diag)
@@ -240,13 +223,7 @@ static ej_err tlpd_check_config(const void *config, ej_diag *diag)
       if (!(t->hi[k] >= t->lo[k]))
         return ej_diag_error(diag, "traction", "traction box: hi[%d] = %g is below lo[%d] = %g", k, t->hi[k], k, t->lo[k]);
   }
-  const tlpd_init_stress_cfg *is = &c->initial_stress;
-  if (is->file && is->file[0]) {
-    for (int k = 0; k < 6; ++k)
-      if (is->uniform[k] != 0)
-        return ej_diag_error(diag, "initial_stress", "initial_stress: give either 'uniform' or 'file', not both");
-  }
-  return EJ_OK;
+  return ej_initial_stress_check(&c->initial_stress, diag);
 }
 
 /* ------------------------------------------------------------------ state */
@@ -757,167 +734,6 @@ static ej_err tlpd_support(void *state, const ej_set *set, ej_range r, ej_real *
   return EJ_OK;
 }
 
-/* ------------------------------------------------------------------ initial stress */
-
-/* One row of the initial_stress file: its cell (key) and values. */
-typedef struct tlpd_is_row {
-  int64_t key[3];
-  ej_real x[3];
-  ej_real s[6];
-} tlpd_is_row;
-
-static int tlpd_is_cmp_key(const int64_t *a, const int64_t *b)
-{
-  for (int k = 0; k < 3; ++k)
-    if (a[k] != b[k]) return a[k] < b[k] ? -1 : 1;
-  return 0;
-}
-
-static int tlpd_is_cmp(const void *a, const void *b)
-{
-  return tlpd_is_cmp_key(((const tlpd_is_row *)a)->key, ((const tlpd_is_row *)b)->key);
-}
-
-/* Reads the CSV of initial_stress.file into rows (header: x, y, z, sxx, syy, szz, sxy, syz, szx). */
-static ej_err tlpd_is_read(const tlpd_state *s, const char *path, tlpd_is_row **rows_out, size_t *n_out)
-{
-  static const char *const names[9] = {"x", "y", "z", "sxx", "syy", "szz", "sxy", "syz", "szx"};
-  FILE *fp = fopen(path, "r");
-  EJ_ENSURE(fp, EJ_ERR_INPUT, "set '%s': cannot read initial_stress file '%s'", s->name, path);
-  char line[4096];
-  int col[16], ncol = 0; /* kind of each column: 0..8 */
-  bool have[9] = {false};
-  ej_err rc = EJ_OK;
-  tlpd_is_row *rows = NULL;
-  size_t n = 0, cap = 0;
-  long lineno = 1;
-  if (!fgets(line, sizeof line, fp)) {
-    fclose(fp);
-    EJ_FAIL(EJ_ERR_INPUT, "set '%s': initial_stress file '%s' is empty (expected a header line)", s->name, path);
-  }
-  for (char *tok = strtok(line, ",\r\n"); tok; tok = strtok(NULL, ",\r\n")) {
-    while (*tok == ' ' || *tok == '\t') ++tok;
-    size_t L = strlen(tok);
-    while (L > 0 && (tok[L - 1] == ' ' || tok[L - 1] == '\t')) tok[--L] = 0;
-    int kind = -1;
-    for (int k = 0; k < 9; ++k)
-      if (strcmp(tok, names[k]) == 0) kind = k;
-    if (kind < 0 || have[kind] || ncol == 16) {
-      fclose(fp);
-      EJ_FAIL(EJ_ERR_INPUT, "set '%s': initial_stress file '%s' line 1: %s column '%s' (expected x, y, z, sxx, syy, "
-              "szz, sxy, syz, szx)", s->name, path, kind < 0 ? "unknown" : "repeated", tok);
-    }
-    have[kind] = true;
-    col[ncol++] = kind;
-  }
-  for (int k = 0; k < s->dim; ++k)
-    if (!have[k]) {
-      fclose(fp);
-      EJ_FAIL(EJ_ERR_INPUT, "set '%s': initial_stress file '%s' lacks column '%s'", s->name, path, names[k]);
-    }
-  while (fgets(line, sizeof line, fp)) {
-    ++lineno;
-    char *p = line;
-    while (*p == ' ' || *p == '\t') ++p;
-    if (*p == '\n' || *p == '\r' || *p == 0 || *p == '#') continue;
-    if (n == cap) {
-      cap = cap ? 2 * cap : 1024;
-      tlpd_is_row *nr = ej_realloc(rows, cap * sizeof *rows);
-      if (!nr) {
-        rc = ej_error_push(EJ_ERR_MEM, __FILE__, __LINE__, __func__, "out of memory");
-        goto out;
-      }
-      rows = nr;
-    }
-    tlpd_is_row *r = &rows[n];
-    memset(r, 0, sizeof *r);
-    for (int c = 0; c < ncol; ++c) {
-      char *end;
-      const double v = strtod(p, &end);
-      while (*end == ' ' || *end == '\t') ++end;
-      if (end == p || !isfinite(v) || (c + 1 < ncol ? *end != ',' : (*end != 0 && *end != '\n' && *end != '\r'))) {
-        rc = ej_error_push(EJ_ERR_INPUT, __FILE__, __LINE__, __func__,
-                           "set '%s': initial_stress file '%s' line %ld: column %d ('%s') is not a number", s->name,
-                           path, lineno, c + 1, names[col[c]]);
-        goto out;
-      }
-      if (col[c] < 3) r->x[col[c]] = v;
-      else r->s[col[c] - 3] = v;
-      p = end + 1;
-    }
-    ++n;
-  }
-out:
-  fclose(fp);
-  if (rc != EJ_OK) {
-    ej_free(rows);
-    return rc;
-  }
-  *rows_out = rows;
-  *n_out = n;
-  return EJ_OK;
-}
-
-/* initial_stress: sigma(t = 0) = uniform, or the file's row at each particle's initial position
- * (a row within a quarter of the particle's spacing dx_i = vol0^(1/dim), the nearest if several;
- * rows sorted by cells of size h = max_i dx_i / 4, so a particle searches its 3^dim cells). */
-static ej_err tlpd_initial_stress(const tlpd_state *s, ej_set *set)
-{
-  const tlpd_init_stress_cfg *c = &s->cfg.initial_stress;
-  const ej_idx n = ej_set_count(set);
-  const ej_real *x = ej_set_field(set, "x"), *vol0 = ej_set_field(set, "vol0");
-  ej_real *stress = ej_set_field(set, "stress");
-  EJ_ENSURE(x && vol0 && stress, EJ_ERR_INTERNAL, "set '%s': tlpd fields missing", s->name);
-  if (!(c->file && c->file[0])) {
-    bool any = false;
-    for (int k = 0; k < 6; ++k) any |= c->uniform[k] != 0;
-    if (any)
-      for (ej_idx i = 0; i < n; ++i) memcpy(stress + 6 * i, c->uniform, 6 * sizeof *stress);
-    return EJ_OK;
-  }
-  tlpd_is_row *rows = NULL;
-  size_t nr = 0;
-  EJ_TRY(tlpd_is_read(s, c->file, &rows, &nr));
-  ej_real h = 0;
-  for (ej_idx i = 0; i < n; ++i) h = fmax(h, 0.25 * tlpd_dx(s, vol0[i]));
-  if (!(h > 0)) h = 1;
-  for (size_t k = 0; k < nr; ++k)
-    for (int a = 0; a < 3; ++a) rows[k].key[a] = a < s->dim ? (int64_t)floor(rows[k].x[a] / h) : 0;
-  qsort(rows, nr, sizeof *rows, tlpd_is_cmp);
-  const int lo = -1, hi = 1;
-  for (ej_idx i = 0; i < n; ++i) {
-    const ej_real *xi = x + 3 * i, tol = 0.25 * tlpd_dx(s, vol0[i]);
-    int64_t ki[3];
-    for (int a = 0; a < 3; ++a) ki[a] = a < s->dim ? (int64_t)floor(xi[a] / h) : 0;
-    ej_real best = INFINITY;
-    const tlpd_is_row *pick = NULL;
-    for (int d0 = lo; d0 <= hi; ++d0)
-      for (int d1 = (s->dim > 1 ? lo : 0); d1 <= (s->dim > 1 ? hi : 0); ++d1)
-        for (int d2 = (s->dim > 2 ? lo : 0); d2 <= (s->dim > 2 ? hi : 0); ++d2) {
-          const int64_t key[3] = {ki[0] + d0, ki[1] + d1, ki[2] + d2};
-          size_t a = 0, b = nr; /* first row with key >= cell */
-          while (a < b) {
-            const size_t mid = a + (b - a) / 2;
-            if (tlpd_is_cmp_key(rows[mid].key, key) < 0) a = mid + 1;
-            else b = mid;
-          }
-          for (; a < nr && tlpd_is_cmp_key(rows[a].key, key) == 0; ++a) {
-            ej_real d2s = 0;
-            for (int q = 0; q < s->dim; ++q) d2s += (rows[a].x[q] - xi[q]) * (rows[a].x[q] - xi[q]);
-            if (d2s < best) best = d2s, pick = &rows[a];
-          }
-        }
-    if (!pick || sqrt(best) > tol) {
-      ej_free(rows);
-      EJ_FAIL(EJ_ERR_INPUT, "set '%s': initial_stress file '%s' has no row within %g m of particle %d at (%g, %g, %g)",
-              s->name, c->file, tol, (int)i, xi[0], xi[1], xi[2]);
-    }
-    memcpy(stress + 6 * i, pick->s, 6 * sizeof *stress);
-  }
-  ej_free(rows);
-  return EJ_OK;
-}
-
 static ej_err tlpd_setup(void *state, ej_set *set)
 {
   const tlpd_state *s = state;
@@ -930,7 +746,9 @@ static ej_err tlpd_setup(void *state, ej_set *set)
               m[i], vol0[i]);
     memcpy(xp + 3 * i, x + 3 * i, 3 * sizeof *x);
   }
-  return tlpd_initial_stress(s, set);
+  ej_real *stress = ej_set_field(set, "stress");
+  EJ_ENSURE(stress, EJ_ERR_INTERNAL, "set '%s': tlpd field stress missing", s->name);
+  return ej_initial_stress_apply(&s->cfg.initial_stress, set, stress);
 }
 
 /* ------------------------------------------------------------------ lazy allocation */
